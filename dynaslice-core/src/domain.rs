@@ -1,0 +1,112 @@
+//! The affine map between world units (millimetres, seconds) and the network's normalised domain.
+//!
+//! The network is trained on x_n = (x − c) / s ∈ [−1, 1]³ and t_n = (t − t₀) / τ ∈ [0, 1] (the
+//! paper normalises time to [0, 1], which is what makes ω_t^max ∝ π/Δt meaningful, Eq. 4), and
+//! predicts distances in normalised units. Queries and answers are in world units:
+//! f_world = σ f_n, ∇ₓf_world = σ ∇ₓₙ f_n ⊘ s, ∂f/∂t_world = σ ∂f_n/∂t_n / τ.
+//! With an isotropic s (what the trainer writes) and σ = s, ‖∇ₓf‖ ≈ 1 in world units.
+
+use crate::Error;
+
+/// World ↔ normalised coordinates of one model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Domain {
+    /// World point mapped to the origin of the normalised cube.
+    pub center: [f32; 3],
+    /// World half-extent per axis mapped to 1.
+    pub scale: [f32; 3],
+    /// World time mapped to t_n = 0.
+    pub time_origin: f32,
+    /// World duration mapped to 1 (t₁ − t₀).
+    pub time_span: f32,
+    /// Factor from normalised distances to world distances (σ).
+    pub output_scale: f32,
+}
+
+impl Domain {
+    /// The identity map: world = normalised.
+    pub const IDENTITY: Domain = Domain {
+        center: [0.0; 3],
+        scale: [1.0; 3],
+        time_origin: 0.0,
+        time_span: 1.0,
+        output_scale: 1.0,
+    };
+
+    /// Checks that every field is finite and every scale positive (and not so small or large
+    /// that its reciprocal overflows).
+    pub fn validate(&self) -> Result<(), Error> {
+        let positive = |v: f32| v.is_finite() && v > 1e-30 && v < 1e30;
+        if !self.center.iter().all(|v| v.is_finite()) {
+            return Err(Error::BadHeaderValue("domain centre is not finite"));
+        }
+        if !self.scale.iter().all(|&v| positive(v)) {
+            return Err(Error::BadHeaderValue(
+                "domain scale is not a positive finite number",
+            ));
+        }
+        if !self.time_origin.is_finite() {
+            return Err(Error::BadHeaderValue("time origin is not finite"));
+        }
+        if !positive(self.time_span) {
+            return Err(Error::BadHeaderValue(
+                "time span is not a positive finite number",
+            ));
+        }
+        if !positive(self.output_scale) {
+            return Err(Error::BadHeaderValue(
+                "output scale is not a positive finite number",
+            ));
+        }
+        Ok(())
+    }
+
+    /// World point and time to normalised (x_n, y_n, z_n, t_n).
+    #[inline]
+    pub fn normalise(&self, x: [f32; 3], t: f32) -> [f32; 4] {
+        [
+            (x[0] - self.center[0]) / self.scale[0],
+            (x[1] - self.center[1]) / self.scale[1],
+            (x[2] - self.center[2]) / self.scale[2],
+            (t - self.time_origin) / self.time_span,
+        ]
+    }
+
+    /// Normalised point and time back to world units.
+    #[inline]
+    pub fn denormalise(&self, n: [f32; 4]) -> ([f32; 3], f32) {
+        (
+            [
+                self.center[0] + n[0] * self.scale[0],
+                self.center[1] + n[1] * self.scale[1],
+                self.center[2] + n[2] * self.scale[2],
+            ],
+            self.time_origin + n[3] * self.time_span,
+        )
+    }
+
+    /// Factors turning derivatives of the normalised network into world derivatives, for the
+    /// inputs x, y, z, t: σ/s_x, σ/s_y, σ/s_z, σ/τ.
+    #[inline]
+    pub fn derivative_factors(&self) -> [f32; 4] {
+        let s = self.output_scale;
+        [
+            s / self.scale[0],
+            s / self.scale[1],
+            s / self.scale[2],
+            s / self.time_span,
+        ]
+    }
+
+    /// World bounding box (min, max) of the normalised cube [−1, 1]³.
+    pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let lo = core::array::from_fn(|i| self.center[i] - self.scale[i]);
+        let hi = core::array::from_fn(|i| self.center[i] + self.scale[i]);
+        (lo, hi)
+    }
+
+    /// World time range (t₀, t₁) of the normalised [0, 1].
+    pub fn time_range(&self) -> (f32, f32) {
+        (self.time_origin, self.time_origin + self.time_span)
+    }
+}

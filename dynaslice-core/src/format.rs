@@ -1,0 +1,495 @@
+//! The model file format, version 1 (byte by byte in `docs/model-format.md`).
+//!
+//! ```text
+//! offset              size          content
+//! 0                   256           Header (little-endian, bytemuck Pod)
+//! 256                 64·K          K class records
+//! 256 + 64·K          L             metadata, UTF-8 (L ≤ MAX_METADATA)
+//! align64(…)          0..63         zero padding
+//! weights_offset      4·N or 2·N    N weights, f32 or f16, layer by layer (see Layout)
+//! file_size − 4       4             CRC-32 of bytes [0, file_size − 4)
+//! ```
+//! The layout is canonical: every offset is implied by the dimensions, and readers reject a file
+//! whose offsets disagree. Weights start 64-byte aligned, so a model embedded with a 64-byte
+//! aligned `include_bytes!` is read in place.
+
+use crate::layout::Layout;
+use crate::model::{ClassInfo, Model, Weights};
+use crate::{crc32, Domain, Error};
+use bytemuck::{Pod, Zeroable};
+use half::f16;
+
+/// The first 8 bytes of every model file.
+pub const MAGIC: [u8; 8] = *b"DYNSLICE";
+/// The format version this library reads and writes.
+pub const VERSION: u32 = 1;
+/// Size of [`Header`] in bytes.
+pub const HEADER_SIZE: usize = 256;
+/// Size of one class record in bytes.
+pub const CLASS_RECORD_SIZE: usize = 64;
+/// Longest class name, in bytes of UTF-8.
+pub const MAX_NAME_LEN: usize = 56;
+/// Most sine layers (the first layer and up to 7 hidden layers).
+pub const MAX_SINE_LAYERS: usize = 8;
+/// Widest sine layer.
+pub const MAX_WIDTH: usize = 512;
+/// Most classes (output channels).
+pub const MAX_CLASSES: usize = 64;
+/// Longest metadata section, in bytes.
+pub const MAX_METADATA: usize = 1 << 20;
+/// Alignment of the weight section, from the start of the file.
+pub const WEIGHT_ALIGN: usize = 64;
+
+/// Weight data type codes.
+pub const DTYPE_F32: u32 = 0;
+/// See [`DTYPE_F32`].
+pub const DTYPE_F16: u32 = 1;
+
+/// The fixed 256-byte header. All integers and floats little-endian.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct Header {
+    /// [`MAGIC`].
+    pub magic: [u8; 8],
+    /// [`VERSION`].
+    pub version: u32,
+    /// [`HEADER_SIZE`].
+    pub header_size: u32,
+    /// Total file size including the CRC trailer.
+    pub file_size: u64,
+    /// [`DTYPE_F32`] or [`DTYPE_F16`].
+    pub dtype: u32,
+    /// K.
+    pub num_classes: u32,
+    /// d + 1.
+    pub num_sine_layers: u32,
+    /// Reserved, zero.
+    pub flags: u32,
+    /// Widths of the sine layers; unused slots zero.
+    pub widths: [u32; MAX_SINE_LAYERS],
+    /// [`Domain::center`].
+    pub center: [f32; 3],
+    /// [`Domain::scale`].
+    pub scale: [f32; 3],
+    /// [`Domain::time_origin`].
+    pub time_origin: f32,
+    /// [`Domain::time_span`].
+    pub time_span: f32,
+    /// [`Domain::output_scale`].
+    pub output_scale: f32,
+    /// ω_t^max (Eq. 4), in normalised time.
+    pub omega_t_max: f32,
+    /// Always [`HEADER_SIZE`].
+    pub classes_offset: u64,
+    /// Always `HEADER_SIZE + 64·K`.
+    pub metadata_offset: u64,
+    /// Metadata length in bytes.
+    pub metadata_len: u64,
+    /// `align64(metadata_offset + metadata_len)`.
+    pub weights_offset: u64,
+    /// Number of weights, [`Layout::param_count`].
+    pub weights_count: u64,
+    /// Reserved, zero.
+    pub reserved: [u8; 104],
+}
+
+const _: () = assert!(core::mem::size_of::<Header>() == HEADER_SIZE);
+
+/// One class record: `label: i32`, `name_len: u32`, `name: [u8; 56]` (zero-padded UTF-8).
+pub(crate) struct ClassRecord;
+
+impl ClassRecord {
+    /// Decodes and validates a 64-byte record of class `k` (1-based, for errors).
+    pub(crate) fn decode(raw: &[u8], k: u32) -> Result<ClassInfo<'_>, Error> {
+        let bad = Error::BadClassRecord { class: k };
+        if raw.len() != CLASS_RECORD_SIZE {
+            return Err(bad);
+        }
+        let word = |i: usize| [raw[i], raw[i + 1], raw[i + 2], raw[i + 3]];
+        let label = i32::from_le_bytes(word(0));
+        let len = u32::from_le_bytes(word(4)) as usize;
+        let field = &raw[8..];
+        if len > MAX_NAME_LEN || field[len..].iter().any(|&b| b != 0) {
+            return Err(bad);
+        }
+        let name = core::str::from_utf8(&field[..len]).map_err(|_| bad)?;
+        Ok(ClassInfo { name, label })
+    }
+}
+
+fn align_up(v: u64, a: u64) -> Option<u64> {
+    v.checked_add(a - 1).map(|x| x / a * a)
+}
+
+/// Where every section lives, from the dimensions alone (checked arithmetic throughout).
+struct Sections {
+    metadata_offset: u64,
+    weights_offset: u64,
+    weights_bytes: u64,
+    file_size: u64,
+}
+
+fn sections(layout: &Layout, metadata_len: u64, elem: u64) -> Option<Sections> {
+    let metadata_offset =
+        (HEADER_SIZE as u64).checked_add((layout.num_classes() as u64).checked_mul(64)?)?;
+    let weights_offset = align_up(
+        metadata_offset.checked_add(metadata_len)?,
+        WEIGHT_ALIGN as u64,
+    )?;
+    let weights_bytes = (layout.param_count() as u64).checked_mul(elem)?;
+    let file_size = weights_offset.checked_add(weights_bytes)?.checked_add(4)?;
+    Some(Sections {
+        metadata_offset,
+        weights_offset,
+        weights_bytes,
+        file_size,
+    })
+}
+
+/// Validates a model file; see [`Model::from_bytes`].
+pub(crate) fn parse(bytes: &[u8]) -> Result<Model<'_>, Error> {
+    if cfg!(target_endian = "big") {
+        return Err(Error::BigEndianHost);
+    }
+    let available = bytes.len() as u64;
+    let head = bytes.get(..HEADER_SIZE).ok_or(Error::Truncated {
+        needed: HEADER_SIZE as u64,
+        available,
+    })?;
+    let h: Header = bytemuck::pod_read_unaligned(head);
+    if h.magic != MAGIC {
+        return Err(Error::BadMagic);
+    }
+    if h.version != VERSION {
+        return Err(Error::UnsupportedVersion(h.version));
+    }
+    if h.header_size as usize != HEADER_SIZE {
+        return Err(Error::BadHeaderSize(h.header_size));
+    }
+    let elem = match h.dtype {
+        DTYPE_F32 => 4,
+        DTYPE_F16 => 2,
+        d => return Err(Error::BadDtype(d)),
+    };
+    let n_layers = h.num_sine_layers as usize;
+    if n_layers == 0 || n_layers > MAX_SINE_LAYERS {
+        return Err(Error::BadDimension {
+            what: "sine layer count",
+            value: n_layers as u64,
+            max: MAX_SINE_LAYERS as u64,
+        });
+    }
+    if h.widths[n_layers..].iter().any(|&w| w != 0)
+        || h.flags != 0
+        || h.reserved.iter().any(|&b| b != 0)
+    {
+        return Err(Error::NonZeroPadding);
+    }
+    let layout = Layout::new(&h.widths[..n_layers], h.num_classes)?;
+    if h.metadata_len > MAX_METADATA as u64 {
+        return Err(Error::BadDimension {
+            what: "metadata length",
+            value: h.metadata_len,
+            max: MAX_METADATA as u64,
+        });
+    }
+    let s = sections(&layout, h.metadata_len, elem).ok_or(Error::BadLayout("size overflow"))?;
+    if h.classes_offset != HEADER_SIZE as u64 {
+        return Err(Error::BadLayout("class table offset"));
+    }
+    if h.metadata_offset != s.metadata_offset {
+        return Err(Error::BadLayout("metadata offset"));
+    }
+    if h.weights_offset != s.weights_offset {
+        return Err(Error::BadLayout("weights offset"));
+    }
+    if h.weights_count != layout.param_count() as u64 {
+        return Err(Error::BadLayout(
+            "weight count does not match the layer widths",
+        ));
+    }
+    if h.file_size != s.file_size {
+        return Err(Error::BadLayout("file size does not match the dimensions"));
+    }
+    if available < s.file_size {
+        return Err(Error::Truncated {
+            needed: s.file_size,
+            available,
+        });
+    }
+    if available > s.file_size {
+        return Err(Error::BadLayout("bytes after the CRC trailer"));
+    }
+    // Every offset below is now known to lie inside `bytes` (all ≤ file_size = len).
+    let body_len = bytes.len() - 4;
+    let (body, trailer) = bytes.split_at(body_len);
+    let stored = u32::from_le_bytes([trailer[0], trailer[1], trailer[2], trailer[3]]);
+    let computed = crc32(body);
+    if stored != computed {
+        return Err(Error::CrcMismatch { stored, computed });
+    }
+
+    let domain = Domain {
+        center: h.center,
+        scale: h.scale,
+        time_origin: h.time_origin,
+        time_span: h.time_span,
+        output_scale: h.output_scale,
+    };
+    domain.validate()?;
+    if !(h.omega_t_max.is_finite() && h.omega_t_max >= 0.0) {
+        return Err(Error::BadHeaderValue(
+            "omega_t_max is not a non-negative finite number",
+        ));
+    }
+
+    let meta_start = s.metadata_offset as usize;
+    let meta_end = meta_start + h.metadata_len as usize;
+    let classes = &body[HEADER_SIZE..meta_start];
+    for (i, raw) in classes.chunks_exact(CLASS_RECORD_SIZE).enumerate() {
+        ClassRecord::decode(raw, i as u32 + 1)?;
+    }
+    let metadata =
+        core::str::from_utf8(&body[meta_start..meta_end]).map_err(|_| Error::BadMetadata)?;
+    let w_start = s.weights_offset as usize;
+    if body[meta_end..w_start].iter().any(|&b| b != 0) {
+        return Err(Error::NonZeroPadding);
+    }
+    let raw = &body[w_start..w_start + s.weights_bytes as usize];
+    let weights = match h.dtype {
+        DTYPE_F32 => Weights::F32(bytemuck::try_cast_slice(raw).map_err(|_| Error::Misaligned)?),
+        _ => Weights::F16(bytemuck::try_cast_slice::<u8, f16>(raw).map_err(|_| Error::Misaligned)?),
+    };
+    let bad = match weights {
+        Weights::F32(w) => w.iter().position(|v| !v.is_finite()),
+        Weights::F16(w) => w.iter().position(|v| !v.is_finite()),
+    };
+    if let Some(index) = bad {
+        return Err(Error::NonFiniteWeight {
+            index: index as u64,
+        });
+    }
+    Ok(Model {
+        layout,
+        domain,
+        omega_t_max: h.omega_t_max,
+        weights,
+        classes,
+        metadata,
+    })
+}
+
+#[cfg(feature = "std")]
+pub use writer::{ModelWriter, WeightType};
+
+#[cfg(feature = "std")]
+mod writer {
+    use super::*;
+    use std::string::String;
+    use std::vec::Vec;
+
+    /// Storage precision of the weights in a written file.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub enum WeightType {
+        /// 4 bytes per weight: exact.
+        F32,
+        /// 2 bytes per weight: half the size; see docs/model-format.md for the measured error.
+        F16,
+    }
+
+    /// An owned model to be written: the exact inverse of [`Model::from_bytes`].
+    #[derive(Debug, Clone, PartialEq)]
+    pub struct ModelWriter {
+        /// Widths of the sine layers (d + 1 entries).
+        pub widths: Vec<u32>,
+        /// (name, source label value) per class, K entries.
+        pub classes: Vec<(String, i32)>,
+        /// World ↔ normalised map.
+        pub domain: Domain,
+        /// ω_t^max of Eq. 4 in normalised time.
+        pub omega_t_max: f32,
+        /// All parameters in [`Layout`] order.
+        pub params: Vec<f32>,
+        /// Free-form UTF-8 (the trainer records its options here).
+        pub metadata: String,
+        /// Storage precision.
+        pub weight_type: WeightType,
+    }
+
+    impl ModelWriter {
+        /// A SIREN-initialised network (Sitzmann et al. 2020, with ω₀ = 30 folded into the
+        /// weights): first layer U(−ω₀/4, ω₀/4) for ω_x, ω_t in [−ω_t^max, ω_t^max] with
+        /// ω_t^max = 2π·4; hidden layers U(−√(6/fan_in), √(6/fan_in)); an identity domain; a
+        /// deterministic function of `seed`. Useful as a fixture for tests and benchmarks.
+        pub fn random_siren(widths: &[u32], num_classes: u32, seed: u64) -> ModelWriter {
+            let mut rng = SplitMix64(seed);
+            let omega_t_max = 8.0 * core::f32::consts::PI;
+            let classes = (1..=num_classes)
+                .map(|k| (std::format!("class {k}"), k as i32))
+                .collect();
+            let mut w = ModelWriter {
+                widths: widths.to_vec(),
+                classes,
+                domain: Domain::IDENTITY,
+                omega_t_max,
+                params: Vec::new(),
+                metadata: String::new(),
+                weight_type: WeightType::F32,
+            };
+            let Ok(layout) = w.layout() else { return w };
+            for l in 0..layout.num_layers() {
+                let (fan_in, fan_out) = layout.layer_dims(l);
+                let bound = if l == 0 {
+                    30.0 / fan_in as f32
+                } else {
+                    (6.0 / fan_in as f32).sqrt()
+                };
+                for i in 0..fan_in {
+                    let b = if l == 0 && i == 3 { omega_t_max } else { bound };
+                    w.params.extend((0..fan_out).map(|_| rng.uniform(-b, b)));
+                }
+                let bb = 1.0 / (fan_in as f32).sqrt();
+                w.params.extend((0..fan_out).map(|_| rng.uniform(-bb, bb)));
+            }
+            w
+        }
+
+        /// The validated layout of this model.
+        pub fn layout(&self) -> Result<Layout, Error> {
+            Layout::new(&self.widths, self.classes.len() as u32)
+        }
+
+        /// Serialises the model, checking everything [`Model::from_bytes`] checks.
+        pub fn try_to_bytes(&self) -> Result<Vec<u8>, Error> {
+            let layout = self.layout()?;
+            if self.params.len() != layout.param_count() {
+                return Err(Error::InvalidModel(
+                    "parameter count does not match the widths",
+                ));
+            }
+            if let Some(i) = self.params.iter().position(|v| !v.is_finite()) {
+                return Err(Error::NonFiniteWeight { index: i as u64 });
+            }
+            if self.weight_type == WeightType::F16
+                && self.params.iter().any(|&v| !f16::from_f32(v).is_finite())
+            {
+                return Err(Error::InvalidModel("a weight overflows f16"));
+            }
+            self.domain.validate()?;
+            if !(self.omega_t_max.is_finite() && self.omega_t_max >= 0.0) {
+                return Err(Error::InvalidModel(
+                    "omega_t_max must be finite and non-negative",
+                ));
+            }
+            if self.metadata.len() > MAX_METADATA {
+                return Err(Error::InvalidModel("metadata too long"));
+            }
+            if self
+                .classes
+                .iter()
+                .any(|(name, _)| name.len() > MAX_NAME_LEN)
+            {
+                return Err(Error::InvalidModel("class name longer than 56 bytes"));
+            }
+            let (elem, dtype) = match self.weight_type {
+                WeightType::F32 => (4, DTYPE_F32),
+                WeightType::F16 => (2, DTYPE_F16),
+            };
+            let s = sections(&layout, self.metadata.len() as u64, elem)
+                .ok_or(Error::InvalidModel("model too large"))?;
+            let mut widths = [0u32; MAX_SINE_LAYERS];
+            widths[..self.widths.len()].copy_from_slice(&self.widths);
+            let header = Header {
+                magic: MAGIC,
+                version: VERSION,
+                header_size: HEADER_SIZE as u32,
+                file_size: s.file_size,
+                dtype,
+                num_classes: self.classes.len() as u32,
+                num_sine_layers: self.widths.len() as u32,
+                flags: 0,
+                widths,
+                center: self.domain.center,
+                scale: self.domain.scale,
+                time_origin: self.domain.time_origin,
+                time_span: self.domain.time_span,
+                output_scale: self.domain.output_scale,
+                omega_t_max: self.omega_t_max,
+                classes_offset: HEADER_SIZE as u64,
+                metadata_offset: s.metadata_offset,
+                metadata_len: self.metadata.len() as u64,
+                weights_offset: s.weights_offset,
+                weights_count: self.params.len() as u64,
+                reserved: [0; 104],
+            };
+            let mut out = Vec::with_capacity(s.file_size as usize);
+            out.extend_from_slice(bytemuck::bytes_of(&header));
+            for (name, label) in &self.classes {
+                let mut rec = [0u8; CLASS_RECORD_SIZE];
+                rec[0..4].copy_from_slice(&label.to_le_bytes());
+                rec[4..8].copy_from_slice(&(name.len() as u32).to_le_bytes());
+                rec[8..8 + name.len()].copy_from_slice(name.as_bytes());
+                out.extend_from_slice(&rec);
+            }
+            out.extend_from_slice(self.metadata.as_bytes());
+            out.resize(s.weights_offset as usize, 0);
+            match self.weight_type {
+                WeightType::F32 => self
+                    .params
+                    .iter()
+                    .for_each(|v| out.extend_from_slice(&v.to_le_bytes())),
+                WeightType::F16 => self
+                    .params
+                    .iter()
+                    .for_each(|&v| out.extend_from_slice(&f16::from_f32(v).to_le_bytes())),
+            }
+            let crc = crc32(&out);
+            out.extend_from_slice(&crc.to_le_bytes());
+            debug_assert_eq!(out.len() as u64, s.file_size);
+            Ok(out)
+        }
+
+        /// Serialises a model known to be valid; panics with the reason otherwise (use
+        /// [`ModelWriter::try_to_bytes`] for models built from untrusted values).
+        pub fn to_bytes(&self) -> Vec<u8> {
+            match self.try_to_bytes() {
+                Ok(b) => b,
+                Err(e) => panic!("invalid model: {e}"),
+            }
+        }
+
+        /// Reads a model back into an owned writer (f16 weights widened to f32).
+        pub fn from_model(model: &Model) -> ModelWriter {
+            let weights = model.weights();
+            ModelWriter {
+                widths: model.layout().widths().iter().map(|&w| w as u32).collect(),
+                classes: model.classes().map(|c| (c.name.into(), c.label)).collect(),
+                domain: *model.domain(),
+                omega_t_max: model.omega_t_max(),
+                params: (0..weights.len()).filter_map(|i| weights.get(i)).collect(),
+                metadata: model.metadata().into(),
+                weight_type: match weights {
+                    Weights::F32(_) => WeightType::F32,
+                    Weights::F16(_) => WeightType::F16,
+                },
+            }
+        }
+    }
+
+    /// SplitMix64 (Steele et al. 2014): tiny, seedable, good enough for initial weights.
+    struct SplitMix64(u64);
+
+    impl SplitMix64 {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+        fn uniform(&mut self, lo: f32, hi: f32) -> f32 {
+            let u = (self.next() >> 40) as f32 / (1u64 << 24) as f32;
+            lo + (hi - lo) * u
+        }
+    }
+}

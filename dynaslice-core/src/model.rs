@@ -1,0 +1,131 @@
+//! A loaded model: validated dimensions, world domain and zero-copy views of the weights.
+
+use crate::format::{ClassRecord, CLASS_RECORD_SIZE};
+use crate::{Domain, Error, Layout};
+use half::f16;
+
+/// The weight section, borrowed from the model bytes without copying.
+#[derive(Debug, Clone, Copy)]
+pub enum Weights<'a> {
+    /// Single-precision weights.
+    F32(&'a [f32]),
+    /// Half-precision weights (widened to f32 as they are used).
+    F16(&'a [f16]),
+}
+
+impl<'a> Weights<'a> {
+    /// Number of scalars.
+    pub fn len(&self) -> usize {
+        match self {
+            Weights::F32(w) => w.len(),
+            Weights::F16(w) => w.len(),
+        }
+    }
+
+    /// True when there are no scalars.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Scalar `i` as f32, or `None` past the end.
+    pub fn get(&self, i: usize) -> Option<f32> {
+        match self {
+            Weights::F32(w) => w.get(i).copied(),
+            Weights::F16(w) => w.get(i).map(|h| h.to_f32()),
+        }
+    }
+
+    /// Scalars `start..start + len` (clamped to the available range).
+    pub fn sub(&self, start: usize, len: usize) -> Weights<'a> {
+        fn clip<T>(w: &[T], start: usize, len: usize) -> &[T] {
+            let s = start.min(w.len());
+            let e = start.saturating_add(len).min(w.len());
+            &w[s..e]
+        }
+        match *self {
+            Weights::F32(w) => Weights::F32(clip(w, start, len)),
+            Weights::F16(w) => Weights::F16(clip(w, start, len)),
+        }
+    }
+}
+
+/// Name and source label value of one class.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClassInfo<'a> {
+    /// Human-readable name (at most [`crate::format::MAX_NAME_LEN`] bytes of UTF-8).
+    pub name: &'a str,
+    /// The label value this class had in its source (e.g. the segmentation's label number).
+    pub label: i32,
+}
+
+/// A validated DynaSlice model borrowing its bytes (see [`Model::from_bytes`]).
+///
+/// Immutable and `Sync`: any number of threads may query one model at once.
+#[derive(Debug, Clone, Copy)]
+pub struct Model<'a> {
+    pub(crate) layout: Layout,
+    pub(crate) domain: Domain,
+    pub(crate) omega_t_max: f32,
+    pub(crate) weights: Weights<'a>,
+    /// K validated records of [`CLASS_RECORD_SIZE`] bytes.
+    pub(crate) classes: &'a [u8],
+    pub(crate) metadata: &'a str,
+}
+
+impl<'a> Model<'a> {
+    /// Validates `bytes` as a model file (see `docs/model-format.md`) and borrows its weights.
+    ///
+    /// Checks magic, version, every size with overflow-checked arithmetic, dimensions against
+    /// the limits in [`crate::format`], the CRC32 trailer, the domain, class records, metadata
+    /// and that every weight is finite. Never panics and never reads outside `bytes`. The bytes
+    /// must start at an address aligned to 4 (f32 weights) or 2 (f16), else
+    /// [`Error::Misaligned`].
+    pub fn from_bytes(bytes: &'a [u8]) -> Result<Model<'a>, Error> {
+        crate::format::parse(bytes)
+    }
+
+    /// Network dimensions.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// K, the number of classes (output channels).
+    pub fn num_classes(&self) -> usize {
+        self.layout.num_classes()
+    }
+
+    /// The world ↔ normalised map.
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// The temporal frequency bound ω_t^max of Eq. 4, in normalised time (t ∈ [0, 1]).
+    pub fn omega_t_max(&self) -> f32 {
+        self.omega_t_max
+    }
+
+    /// The weight section.
+    pub fn weights(&self) -> Weights<'a> {
+        self.weights
+    }
+
+    /// Free-form UTF-8 metadata (the trainer records its options here).
+    pub fn metadata(&self) -> &'a str {
+        self.metadata
+    }
+
+    /// Class `k` for `k` in `1..=K` (class 0 is the background of Eq. 11 and has no record).
+    pub fn class(&self, k: u32) -> Result<ClassInfo<'a>, Error> {
+        let i = (k as usize).checked_sub(1).ok_or(Error::NoSuchClass(k))?;
+        let raw = self
+            .classes
+            .get(i * CLASS_RECORD_SIZE..(i + 1) * CLASS_RECORD_SIZE)
+            .ok_or(Error::NoSuchClass(k))?;
+        ClassRecord::decode(raw, k)
+    }
+
+    /// The classes in order 1..=K.
+    pub fn classes(&self) -> impl Iterator<Item = ClassInfo<'a>> + '_ {
+        (1..=self.num_classes() as u32).filter_map(move |k| self.class(k).ok())
+    }
+}

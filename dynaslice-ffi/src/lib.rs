@@ -1,0 +1,1 @@
+//! C ABI for DynaSlice (see docs/c-api.md).
