@@ -33,13 +33,13 @@ proptest! {
             let tol = 2e-4 * (want_f[c].abs() + dom.output_scale as f64 * 30.0);
             prop_assert!((f[c] as f64 - want_f[c]).abs() <= tol, "f[{c}] {} vs {}", f[c], want_f[c]);
         }
-        for axis in 0..4 {
-            let unit = if axis < 3 { dom.scale[axis] } else { dom.time_span } as f64;
+        let units = [dom.scale[0], dom.scale[1], dom.scale[2], dom.time_span].map(f64::from);
+        for (axis, unit) in units.into_iter().enumerate() {
             let want = reference.central_difference(xd, t as f64, axis, 1e-4 * unit);
-            for c in 0..k {
-                let got = if axis < 3 { g[c][axis] } else { d[c] } as f64;
-                let tol = 2e-4 * (want[c].abs() + dom.output_scale as f64 / unit * 30.0);
-                prop_assert!((got - want[c]).abs() <= tol, "axis {axis} class {c}: {got} vs {}", want[c]);
+            let got = (0..k).map(|c| if axis < 3 { g[c][axis] } else { d[c] } as f64);
+            for (c, (got, want)) in got.zip(want).enumerate() {
+                let tol = 2e-4 * (want.abs() + dom.output_scale as f64 / unit * 30.0);
+                prop_assert!((got - want).abs() <= tol, "axis {axis} class {c}: {got} vs {want}");
             }
         }
     }
