@@ -1,2 +1,4 @@
 //! DynaSlice's trainer side: cross-section readers, 2D geometry, samplers, the trainer, exporters
 //! and metrics. The `dynaslice` command line is a thin layer over this library.
+
+pub mod train;

@@ -1,0 +1,189 @@
+//! The trainer's hand-written gradients against central differences of an independent f64
+//! implementation of the same loss (forward-mode dual numbers per point, straight from Eq. 1,
+//! 5–8), and the trainer's f and ∇ₓf against the core's evaluation of the exported model.
+
+use super::loss::{ContourSample, LossWeights, PlaneSample};
+use super::network::Network;
+use super::objective::{Batch, Objective};
+use super::passes::Workspace;
+use dynaslice_core::{Domain, Layout, Model};
+use proptest::prelude::*;
+
+/// f and ∇ₓf of every channel at one normalised input, in f64.
+fn reference_point(layout: &Layout, p: &[f64], x: [f64; 4]) -> (Vec<f64>, Vec<[f64; 3]>) {
+    let mut h: Vec<f64> = x.to_vec();
+    let mut hd: Vec<[f64; 3]> = (0..4)
+        .map(|i| std::array::from_fn(|d| if d == i { 1.0 } else { 0.0 }))
+        .collect();
+    for l in 0..layout.num_layers() {
+        let (fan_in, fan_out) = layout.layer_dims(l);
+        let off = layout.layer_offset(l);
+        let mut z = vec![0.0; fan_out];
+        let mut zd = vec![[0.0; 3]; fan_out];
+        for j in 0..fan_out {
+            z[j] = p[off + fan_in * fan_out + j];
+            for i in 0..fan_in {
+                let w = p[off + i * fan_out + j];
+                z[j] += w * h[i];
+                for d in 0..3 {
+                    zd[j][d] += w * hd[i][d];
+                }
+            }
+        }
+        if l < layout.num_sine_layers() {
+            h = z.iter().map(|v| v.sin()).collect();
+            hd = z
+                .iter()
+                .zip(&zd)
+                .map(|(v, g)| g.map(|gd| v.cos() * gd))
+                .collect();
+        } else {
+            h = z;
+            hd = zd;
+        }
+    }
+    (h, hd)
+}
+
+fn reference_loss(layout: &Layout, p: &[f64], b: &Batch, w: &LossWeights) -> f64 {
+    let wide = |x: [f32; 4]| x.map(|v| v as f64);
+    let mut loss = 0.0;
+    for (x, s) in b.contour_x.iter().zip(&b.contour) {
+        let (f, g) = reference_point(layout, p, wide(*x));
+        let c = s.class as usize;
+        let dot: f64 = (0..3).map(|d| g[c][d] * s.normal[d] as f64).sum();
+        loss += s.weight as f64 * (f[c].abs() + w.orientation as f64 * (-dot).max(0.0));
+    }
+    for (x, s) in b.plane_x.iter().zip(&b.plane) {
+        let (f, _) = reference_point(layout, p, wide(*x));
+        let r = f[s.class as usize] - s.target as f64;
+        let r = if s.absent { r.min(0.0) } else { r };
+        loss += s.weight as f64 * w.plane as f64 * r * r;
+    }
+    let n = b.space_x.len() as f64;
+    for x in &b.space_x {
+        let (f, g) = reference_point(layout, p, wide(*x));
+        for (fc, gc) in f.iter().zip(&g) {
+            let norm = (gc[0] * gc[0] + gc[1] * gc[1] + gc[2] * gc[2]).sqrt();
+            loss += w.regulariser as f64 / n
+                * ((norm - 1.0).powi(2) + (-(w.alpha as f64) * fc.abs()).exp());
+        }
+    }
+    loss
+}
+
+fn batch_strategy(k: u32) -> impl Strategy<Value = Batch> {
+    let point = || {
+        (proptest::array::uniform3(-1.0f32..1.0), 0.0f32..1.0)
+            .prop_map(|(x, t)| [x[0], x[1], x[2], t])
+    };
+    let normal = proptest::array::uniform3(-1.0f32..1.0).prop_map(|n| {
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-3);
+        n.map(|v| v / l)
+    });
+    (
+        proptest::collection::vec((point(), 0..k, normal), 1..12),
+        proptest::collection::vec((point(), 0..k, -0.5f32..0.5, any::<bool>()), 1..12),
+        proptest::collection::vec(point(), 1..12),
+    )
+        .prop_map(|(contour, plane, space)| Batch {
+            contour_x: contour.iter().map(|c| c.0).collect(),
+            contour: contour
+                .iter()
+                .map(|c| ContourSample {
+                    class: c.1,
+                    normal: c.2,
+                    weight: 1.0 / contour.len() as f32,
+                })
+                .collect(),
+            plane_x: plane.iter().map(|p| p.0).collect(),
+            plane: plane
+                .iter()
+                .map(|p| PlaneSample {
+                    class: p.1,
+                    target: p.2,
+                    absent: p.3,
+                    weight: 1.0 / plane.len() as f32,
+                })
+                .collect(),
+            space_x: space,
+        })
+}
+
+fn net_strategy() -> impl Strategy<Value = (Network, Batch)> {
+    (
+        proptest::collection::vec(3u32..14, 1..=3),
+        1u32..=3,
+        any::<u64>(),
+        1.0f32..40.0,
+    )
+        .prop_flat_map(|(widths, k, seed, omega)| {
+            let layout = Layout::new(&widths, k).unwrap();
+            // Smaller first-layer frequencies than SIREN's 30 keep the f64 differences well
+            // conditioned; the passes do not depend on the weights' scale.
+            let mut net = Network::siren(layout, omega, seed);
+            let w0 = layout.layer_dims(0).1;
+            net.params[..4 * w0].iter_mut().for_each(|v| *v *= 0.3);
+            (Just(net), batch_strategy(k))
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Every parameter's gradient (all loss terms at once, with non-trivial λs so each term
+    /// matters) against f64 central differences with step 1e-6: truncation O(h²) and rounding
+    /// O(ε₆₄/h) ≈ 1e-10 are negligible. The trainer runs in f32, whose accumulated rounding is
+    /// a few ε₃₂ ≈ 1e-7 times the sum of |terms|, itself ≲ 100x the largest gradient entry:
+    /// hence the 2e-3·max(|g|, 0.05·max|g|) tolerance. A wrong formula (e.g. a dropped
+    /// −sin z ⊙ Σ Ż ⊙ Ḡ cross term) is off by O(1) of that scale.
+    #[test]
+    fn parameter_gradients_match_f64_central_differences((net, batch) in net_strategy(), lambdas in (0.0f32..2.0, 0.0f32..2.0, 0.1f32..2.0, 1.0f32..20.0)) {
+        let weights = LossWeights { orientation: lambdas.0, plane: lambdas.1, regulariser: lambdas.2, alpha: lambdas.3 };
+        let mut objective = Objective::new(&net, 2, 16);
+        let mut grad = vec![0.0; net.params.len()];
+        let terms = objective.evaluate(&net, &batch, &weights, &mut grad);
+        let p64: Vec<f64> = net.params.iter().map(|&v| v as f64).collect();
+        let l64 = reference_loss(&net.layout, &p64, &batch, &weights);
+        prop_assert!((terms.total(&weights) - l64).abs() <= 1e-4 * (1.0 + l64.abs()), "loss {} vs {l64}", terms.total(&weights));
+        let h = 1e-6;
+        let mut numeric = vec![0.0; p64.len()];
+        for i in 0..p64.len() {
+            let mut q = p64.clone();
+            q[i] += h;
+            let plus = reference_loss(&net.layout, &q, &batch, &weights);
+            q[i] -= 2.0 * h;
+            let minus = reference_loss(&net.layout, &q, &batch, &weights);
+            numeric[i] = (plus - minus) / (2.0 * h);
+        }
+        let max = numeric.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (i, (g, want)) in grad.iter().zip(&numeric).enumerate() {
+            let tol = 2e-3 * want.abs().max(0.05 * max);
+            prop_assert!((*g as f64 - want).abs() <= tol, "param {i}: {g} vs {want} (max {max})");
+        }
+    }
+
+    /// The trainer's forward pass equals the core's evaluation of the exported model.
+    #[test]
+    fn trainer_outputs_match_the_core((net, batch) in net_strategy()) {
+        let k = net.layout.num_classes();
+        let bytes = net.to_writer(Domain::IDENTITY, (0..k).map(|c| (format!("c{c}"), c as i32 + 1)).collect(), String::new()).to_bytes();
+        let model = Model::from_bytes(&bytes).unwrap();
+        let x = &batch.space_x;
+        let n = x.len();
+        let mut ws = Workspace::new(&net, n, 3);
+        ws.forward(&net, x);
+        let out = ws.outputs(n);
+        for (i, p) in x.iter().enumerate() {
+            let (mut f, mut g) = (vec![0.0; k], vec![[0.0; 3]; k]);
+            model.eval_grad([p[0], p[1], p[2]], p[3], &mut f, &mut g).unwrap();
+            for c in 0..k {
+                prop_assert!((out[i * k + c] - f[c]).abs() <= 1e-4 * (1.0 + f[c].abs()));
+                for d in 0..3 {
+                    let mine = out[((1 + d) * n + i) * k + c];
+                    prop_assert!((mine - g[c][d]).abs() <= 1e-4 * (1.0 + g[c][d].abs()), "∇f {mine} vs {}", g[c][d]);
+                }
+            }
+        }
+    }
+}

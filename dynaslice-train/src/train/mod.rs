@@ -1,0 +1,17 @@
+//! The trainer: exact hand-written gradients of the DynaSlice loss (Eq. 5–8, 10) and Adam.
+//!
+//! - [`network`]: parameters in the core's layout, SIREN initialisation, ω_t clamp (Eq. 4).
+//! - [`passes`]: forward with spatial tangents and the matching backward pass.
+//! - [`loss`]: the loss terms and their gradients with respect to f and ∇ₓf.
+//! - [`objective`]: the loss and gradient of one batch over worker threads.
+//! - [`adam`]: the optimiser.
+
+pub mod adam;
+pub mod loss;
+mod matmul;
+pub mod network;
+pub mod objective;
+pub mod passes;
+
+#[cfg(test)]
+mod gradient_check;

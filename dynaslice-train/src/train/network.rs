@@ -1,0 +1,109 @@
+//! The trainable network: the core's [`Layout`] with its parameters in an owned vector.
+//!
+//! Parameters use exactly the core's order (per layer Wᵀ then b; see `dynaslice_core::Layout`),
+//! so exporting a model is a copy, and the trainer's f and ∇ₓf can be checked against the
+//! core's evaluation of the exported file.
+
+use dynaslice_core::format::{ModelWriter, WeightType};
+use dynaslice_core::{Domain, Layout};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+/// SIREN's ω₀ (Sitzmann et al. 2020): the frequency scale of the first layer.
+pub const OMEGA_0: f32 = 30.0;
+
+/// Layout, parameters and the temporal band limit of a network being trained.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Network {
+    /// Dimensions (validated by the core).
+    pub layout: Layout,
+    /// Parameters in the core's order.
+    pub params: Vec<f32>,
+    /// ω_t^max of Eq. 4 in normalised time; `f32::INFINITY` disables temporal control.
+    pub omega_t_max: f32,
+}
+
+impl Network {
+    /// SIREN initialisation (vsitzmann/siren, modules.py) with ω₀ folded into the weights,
+    /// which is the same function: sin(ω₀(Wx + b)) = sin((ω₀W)x + ω₀b).
+    /// - First layer: ω₀·U(−1/fan_in, 1/fan_in) for ω_x (fan_in = 4 inputs); ω_t uniform in
+    ///   [−ω_t^max, ω_t^max] (Eq. 4) or like ω_x without temporal control.
+    /// - Hidden layers: ω₀·U(−√(6/fan_in)/ω₀, √(6/fan_in)/ω₀) = U(−√(6/fan_in), √(6/fan_in)).
+    /// - Output layer: U(−√(6/fan_in)/ω₀, …) as SIREN's last linear layer, i.e. small outputs.
+    /// - Biases: PyTorch's default U(−1/√fan_in, 1/√fan_in), times ω₀ for sine layers.
+    pub fn siren(layout: Layout, omega_t_max: f32, seed: u64) -> Network {
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        let mut params = Vec::with_capacity(layout.param_count());
+        for l in 0..layout.num_layers() {
+            let (fan_in, fan_out) = layout.layer_dims(l);
+            let is_output = l + 1 == layout.num_layers();
+            let bound = if l == 0 {
+                OMEGA_0 / fan_in as f32
+            } else if is_output {
+                (6.0 / fan_in as f32).sqrt() / OMEGA_0
+            } else {
+                (6.0 / fan_in as f32).sqrt()
+            };
+            for i in 0..fan_in {
+                let b = if l == 0 && i == 3 {
+                    bound.min(omega_t_max)
+                } else {
+                    bound
+                };
+                params.extend((0..fan_out).map(|_| rng.random_range(-b..=b)));
+            }
+            let bias_scale = if is_output { 1.0 } else { OMEGA_0 };
+            let bb = bias_scale / (fan_in as f32).sqrt();
+            params.extend((0..fan_out).map(|_| rng.random_range(-bb..=bb)));
+        }
+        let mut net = Network {
+            layout,
+            params,
+            omega_t_max,
+        };
+        net.clamp_temporal_frequencies();
+        net
+    }
+
+    /// The ω_t row of the first layer's Wᵀ (Eq. 2).
+    pub fn omega_t_range(&self) -> std::ops::Range<usize> {
+        let width = self.layout.layer_dims(0).1;
+        3 * width..4 * width
+    }
+
+    /// Projects ω_t back into [−ω_t^max, ω_t^max] (Eq. 4); called after every optimiser step.
+    pub fn clamp_temporal_frequencies(&mut self) {
+        let m = self.omega_t_max;
+        let range = self.omega_t_range();
+        self.params[range]
+            .iter_mut()
+            .for_each(|v| *v = v.clamp(-m, m));
+    }
+
+    /// The model file contents for this network.
+    pub fn to_writer(
+        &self,
+        domain: Domain,
+        classes: Vec<(String, i32)>,
+        metadata: String,
+    ) -> ModelWriter {
+        // A disabled band limit is stored as the largest ω_t present, so the file still
+        // evaluates exactly this network.
+        let omega_t_max = if self.omega_t_max.is_finite() {
+            self.omega_t_max
+        } else {
+            self.params[self.omega_t_range()]
+                .iter()
+                .fold(0.0f32, |m, v| m.max(v.abs()))
+        };
+        ModelWriter {
+            widths: self.layout.widths().iter().map(|&w| w as u32).collect(),
+            classes,
+            domain,
+            omega_t_max,
+            params: self.params.clone(),
+            metadata,
+            weight_type: WeightType::F32,
+        }
+    }
+}

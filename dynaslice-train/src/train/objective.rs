@@ -1,0 +1,113 @@
+//! The loss and its exact parameter gradient over one batch of samples, split across threads.
+//!
+//! Each set is cut into as many contiguous chunks as there are workers; worker i runs chunk i
+//! of every set with its own buffers and gradient, and the partial gradients are summed in
+//! worker order. The result is therefore deterministic for a given thread count.
+
+use super::loss::{self, ContourSample, LossTerms, LossWeights, PlaneSample};
+use super::network::Network;
+use super::passes::{Workspace, INPUT_DIM};
+use rayon::prelude::*;
+
+/// The samples of one optimisation step, in the network's normalised frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Batch {
+    /// Contour points (x, y, z, t).
+    pub contour_x: Vec<[f32; INPUT_DIM]>,
+    /// Their class, normal and weight.
+    pub contour: Vec<ContourSample>,
+    /// Plane samples (x, y, z, t).
+    pub plane_x: Vec<[f32; INPUT_DIM]>,
+    /// Their class, target and weight.
+    pub plane: Vec<PlaneSample>,
+    /// Space-time samples (x, y, z, t); each weighs 1/len.
+    pub space_x: Vec<[f32; INPUT_DIM]>,
+}
+
+struct Worker {
+    with_gradient: Workspace,
+    plain: Workspace,
+    g_out: Vec<f32>,
+    grad: Vec<f32>,
+    terms: LossTerms,
+}
+
+/// Per-thread buffers for evaluating the loss; allocated once for the largest batch.
+pub struct Objective {
+    workers: Vec<Worker>,
+}
+
+fn chunk(len: usize, parts: usize, i: usize) -> std::ops::Range<usize> {
+    (len * i / parts)..(len * (i + 1) / parts)
+}
+
+impl Objective {
+    /// Buffers for `workers` threads and batches of at most `max_set` samples per set.
+    pub fn new(net: &Network, workers: usize, max_set: usize) -> Objective {
+        let workers = workers.max(1);
+        let cap = max_set.div_ceil(workers).max(1);
+        let k = net.layout.num_classes();
+        let workers = (0..workers)
+            .map(|_| Worker {
+                with_gradient: Workspace::new(net, cap, 3),
+                plain: Workspace::new(net, cap, 0),
+                g_out: vec![0.0; 4 * cap * k],
+                grad: vec![0.0; net.params.len()],
+                terms: LossTerms::default(),
+            })
+            .collect();
+        Objective { workers }
+    }
+
+    /// Loss terms of `batch`, and the gradient of the weighted total written to `grad`.
+    /// Runs on the current rayon pool.
+    pub fn evaluate(
+        &mut self,
+        net: &Network,
+        batch: &Batch,
+        weights: &LossWeights,
+        grad: &mut [f32],
+    ) -> LossTerms {
+        let parts = self.workers.len();
+        let k = net.layout.num_classes();
+        let space_weight = 1.0 / batch.space_x.len().max(1) as f32;
+        self.workers.par_iter_mut().enumerate().for_each(|(i, w)| {
+            w.grad.fill(0.0);
+            w.terms = LossTerms::default();
+            let c = chunk(batch.contour_x.len(), parts, i);
+            if !c.is_empty() {
+                let x = &batch.contour_x[c.clone()];
+                w.with_gradient.forward(net, x);
+                let out = w.with_gradient.outputs(x.len());
+                let t = loss::contour(out, k, &batch.contour[c], weights, &mut w.g_out);
+                w.terms.add(&t);
+                w.with_gradient.backward(net, x, &w.g_out, &mut w.grad);
+            }
+            let c = chunk(batch.plane_x.len(), parts, i);
+            if !c.is_empty() {
+                let x = &batch.plane_x[c.clone()];
+                w.plain.forward(net, x);
+                let out = w.plain.outputs(x.len());
+                let t = loss::plane(out, k, &batch.plane[c], weights, &mut w.g_out);
+                w.terms.add(&t);
+                w.plain.backward(net, x, &w.g_out, &mut w.grad);
+            }
+            let c = chunk(batch.space_x.len(), parts, i);
+            if !c.is_empty() {
+                let x = &batch.space_x[c];
+                w.with_gradient.forward(net, x);
+                let out = w.with_gradient.outputs(x.len());
+                let t = loss::space_time(out, k, x.len(), space_weight, weights, &mut w.g_out);
+                w.terms.add(&t);
+                w.with_gradient.backward(net, x, &w.g_out, &mut w.grad);
+            }
+        });
+        grad.fill(0.0);
+        let mut terms = LossTerms::default();
+        for w in &self.workers {
+            grad.iter_mut().zip(&w.grad).for_each(|(a, b)| *a += b);
+            terms.add(&w.terms);
+        }
+        terms
+    }
+}

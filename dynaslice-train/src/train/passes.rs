@@ -1,0 +1,254 @@
+//! Hand-written forward and backward passes of the network over a batch, with forward-mode
+//! spatial tangents, so that losses on f and on ∇ₓf have exact parameter gradients.
+//!
+//! Rows are stacked as S = [H; Ḣ₁; Ḣ₂; Ḣ₃] (primal, then one tangent group per spatial axis;
+//! `tangents = 0` keeps only H), so every layer is one matrix product forward and two backward:
+//!
+//! ```text
+//! forward   Z = S Wᵀ (+ b on the primal rows)          H' = sin Z_p,  Ḣ'_d = cos Z_p ⊙ Ż_d
+//! backward  Ḡ_Zp = cos Z_p ⊙ Ḡ_H' − sin Z_p ⊙ Σ_d Ż_d ⊙ Ḡ_Ḣ'd,    Ḡ_Żd = cos Z_p ⊙ Ḡ_Ḣ'd
+//!           ∂Wᵀ += Sᵀ Ḡ_Z,   ∂b += Σ_rows Ḡ_Zp,   Ḡ_S = Ḡ_Z W
+//! ```
+//!
+//! Cost (M = one layer's product over the batch's N primal rows): forward 4M, backward 8M, so
+//! 12M per point whatever K is. The alternative, reverse-over-reverse, costs about 6M per point
+//! per channel whose gradient the loss needs: cheaper for contour points (one channel each),
+//! dearer for space-time samples when K ≥ 2 (eikonal on every channel: 6KM vs 12M). Contour
+//! points use this same scheme for now (12M vs 6M: a 2x saving left on the table for the
+//! contour set, noted in docs/performance.md); points that need no gradient (plane samples)
+//! take the plain 3M forward/backward with `tangents = 0`.
+//!
+//! The first layer's input tangents are the unit vectors, so Ż₀,d is row d of W₀ᵀ (ω_x), and
+//! its weight gradient gets Σ_rows Ḡ_Ż₀,d added to row d.
+
+use super::matmul::{matmul, Mat, Op};
+use super::network::Network;
+use dynaslice_core::sine::sin_cos;
+
+/// Inputs of the first layer: normalised x, y, z, t.
+pub const INPUT_DIM: usize = 4;
+
+/// Buffers of one forward/backward pass over up to `capacity` points; allocated once and
+/// reused every step (no allocation per step).
+pub struct Workspace {
+    capacity: usize,
+    tangents: usize,
+    /// Per sine layer: stacked pre-activations Z (primal rows, then tangent rows Ż).
+    z: Vec<Vec<f32>>,
+    /// Per sine layer: stacked activations S = [sin Z_p; cos Z_p ⊙ Ż].
+    s: Vec<Vec<f32>>,
+    /// Per sine layer: cos Z_p.
+    cos: Vec<Vec<f32>>,
+    /// Stacked outputs [F; Ḟ₁; Ḟ₂; Ḟ₃], each `points × K`.
+    out: Vec<f32>,
+    /// Gradient buffers for the backward pass (the widest stacked layer).
+    g_a: Vec<f32>,
+    g_b: Vec<f32>,
+}
+
+impl Workspace {
+    /// Buffers for `capacity` points with 0 or 3 spatial tangents.
+    pub fn new(net: &Network, capacity: usize, tangents: usize) -> Workspace {
+        assert!(tangents == 0 || tangents == 3, "tangents must be 0 or 3");
+        let rows = capacity * (1 + tangents);
+        let layout = &net.layout;
+        let widths = layout.widths();
+        let widest = layout.max_width();
+        Workspace {
+            capacity,
+            tangents,
+            z: widths.iter().map(|w| vec![0.0; rows * w]).collect(),
+            s: widths.iter().map(|w| vec![0.0; rows * w]).collect(),
+            cos: widths.iter().map(|w| vec![0.0; capacity * w]).collect(),
+            out: vec![0.0; rows * layout.num_classes()],
+            g_a: vec![0.0; rows * widest],
+            g_b: vec![0.0; rows * widest],
+        }
+    }
+
+    /// Stacked outputs of the last forward pass over `points` points: rows `0..points` are f,
+    /// rows `points·(1+d)..points·(2+d)` are ∂f/∂x_d (normalised units), each K wide.
+    pub fn outputs(&self, points: usize) -> &[f32] {
+        &self.out[..points * (1 + self.tangents) * self.out_width()]
+    }
+
+    fn out_width(&self) -> usize {
+        self.out.len() / (self.capacity * (1 + self.tangents)).max(1)
+    }
+
+    /// Forward pass over `inputs` (normalised (x, y, z, t) per point).
+    pub fn forward(&mut self, net: &Network, inputs: &[[f32; INPUT_DIM]]) {
+        let n = inputs.len();
+        assert!(
+            n <= self.capacity,
+            "{n} points > workspace capacity {}",
+            self.capacity
+        );
+        let layout = &net.layout;
+        let t = self.tangents;
+        let rows = n * (1 + t);
+        let p = &net.params;
+
+        // Layer 0 (Eq. 2): Z_p = X W₀ᵀ + φ; Ż_d = row d of W₀ᵀ.
+        let (_, w0) = layout.layer_dims(0);
+        let wt0 = &p[..INPUT_DIM * w0];
+        let b0 = &p[INPUT_DIM * w0..(INPUT_DIM + 1) * w0];
+        let z0 = &mut self.z[0];
+        for (zrow, x) in z0[..n * w0].chunks_exact_mut(w0).zip(inputs) {
+            zrow.copy_from_slice(b0);
+            for (d, &xd) in x.iter().enumerate() {
+                for (zv, wv) in zrow.iter_mut().zip(&wt0[d * w0..(d + 1) * w0]) {
+                    *zv += xd * wv;
+                }
+            }
+        }
+        for d in 0..t {
+            let group = &mut z0[(1 + d) * n * w0..(2 + d) * n * w0];
+            group
+                .chunks_exact_mut(w0)
+                .for_each(|r| r.copy_from_slice(&wt0[d * w0..(d + 1) * w0]));
+        }
+        activate(
+            &self.z[0][..rows * w0],
+            &mut self.s[0][..rows * w0],
+            &mut self.cos[0][..n * w0],
+            n,
+            t,
+            w0,
+        );
+
+        for l in 1..layout.num_layers() {
+            let (fan_in, fan_out) = layout.layer_dims(l);
+            let off = layout.layer_offset(l);
+            let wt = Mat::new(&p[off..off + fan_in * fan_out], fan_in, fan_out);
+            let bias = &p[off + fan_in * fan_out..off + (fan_in + 1) * fan_out];
+            let input = Mat::new(&self.s[l - 1][..rows * fan_in], rows, fan_in);
+            let is_output = l == layout.num_sine_layers();
+            let z = if is_output {
+                &mut self.out[..rows * fan_out]
+            } else {
+                &mut self.z[l][..rows * fan_out]
+            };
+            matmul(z, false, input, Op::N, wt, Op::N);
+            for zrow in z[..n * fan_out].chunks_exact_mut(fan_out) {
+                zrow.iter_mut().zip(bias).for_each(|(v, b)| *v += b);
+            }
+            if !is_output {
+                activate(
+                    &self.z[l][..rows * fan_out],
+                    &mut self.s[l][..rows * fan_out],
+                    &mut self.cos[l][..n * fan_out],
+                    n,
+                    t,
+                    fan_out,
+                );
+            }
+        }
+    }
+
+    /// Backward pass for the last forward over `points` points: `g_out` holds ∂loss/∂(stacked
+    /// outputs) in the layout of [`Workspace::outputs`]; parameter gradients are added to
+    /// `grad` (same order as the parameters).
+    pub fn backward(
+        &mut self,
+        net: &Network,
+        inputs: &[[f32; INPUT_DIM]],
+        g_out: &[f32],
+        grad: &mut [f32],
+    ) {
+        let n = inputs.len();
+        let layout = &net.layout;
+        let t = self.tangents;
+        let rows = n * (1 + t);
+        let p = &net.params;
+        let k = layout.num_classes();
+        assert!(g_out.len() >= rows * k && grad.len() == p.len());
+
+        // Ḡ flows from layer l to l−1 through g_a (current) and g_b (next).
+        let mut g_cur = std::mem::take(&mut self.g_a);
+        let mut g_next = std::mem::take(&mut self.g_b);
+        g_cur[..rows * k].copy_from_slice(&g_out[..rows * k]);
+        for l in (0..layout.num_layers()).rev() {
+            let (fan_in, fan_out) = layout.layer_dims(l);
+            let off = layout.layer_offset(l);
+            if l < layout.num_sine_layers() {
+                // Through the sine: Ḡ_Ḣ' (in g_cur) → Ḡ_Z (in place).
+                sine_backward(
+                    &mut g_cur[..rows * fan_out],
+                    &self.z[l],
+                    &self.s[l],
+                    &self.cos[l],
+                    n,
+                    t,
+                    fan_out,
+                );
+            }
+            let g_z = Mat::new(&g_cur[..rows * fan_out], rows, fan_out);
+            let (gw, gb) = grad[off..off + (fan_in + 1) * fan_out].split_at_mut(fan_in * fan_out);
+            for grow in g_cur[..n * fan_out].chunks_exact(fan_out) {
+                gb.iter_mut().zip(grow).for_each(|(a, b)| *a += b);
+            }
+            if l == 0 {
+                // ∂W₀ᵀ = Xᵀ Ḡ_Zp + Σ_rows Ḡ_Ż_d on row d (the input tangents are unit vectors).
+                for (x, grow) in inputs
+                    .iter()
+                    .zip(g_cur[..n * fan_out].chunks_exact(fan_out))
+                {
+                    for (d, &xd) in x.iter().enumerate() {
+                        gw[d * fan_out..(d + 1) * fan_out]
+                            .iter_mut()
+                            .zip(grow)
+                            .for_each(|(a, b)| *a += xd * b);
+                    }
+                }
+                for d in 0..t {
+                    let group = &g_cur[(1 + d) * n * fan_out..(2 + d) * n * fan_out];
+                    for grow in group.chunks_exact(fan_out) {
+                        gw[d * fan_out..(d + 1) * fan_out]
+                            .iter_mut()
+                            .zip(grow)
+                            .for_each(|(a, b)| *a += b);
+                    }
+                }
+            } else {
+                let input = Mat::new(&self.s[l - 1][..rows * fan_in], rows, fan_in);
+                matmul(gw, true, input, Op::T, g_z, Op::N);
+                let wt = Mat::new(&p[off..off + fan_in * fan_out], fan_in, fan_out);
+                matmul(&mut g_next[..rows * fan_in], false, g_z, Op::N, wt, Op::T);
+                std::mem::swap(&mut g_cur, &mut g_next);
+            }
+        }
+        self.g_a = g_cur;
+        self.g_b = g_next;
+    }
+}
+
+/// S_p = sin Z_p, cos = cos Z_p, S_d = cos Z_p ⊙ Ż_d.
+fn activate(z: &[f32], s: &mut [f32], cos: &mut [f32], n: usize, t: usize, w: usize) {
+    let (zp, zt) = z.split_at(n * w);
+    let (sp, st) = s.split_at_mut(n * w);
+    for ((sv, cv), zv) in sp.iter_mut().zip(cos.iter_mut()).zip(zp) {
+        (*sv, *cv) = sin_cos(*zv);
+    }
+    for d in 0..t {
+        let range = d * n * w..(d + 1) * n * w;
+        for ((sv, zv), cv) in st[range.clone()].iter_mut().zip(&zt[range]).zip(cos.iter()) {
+            *sv = cv * zv;
+        }
+    }
+}
+
+/// In place: g (Ḡ_H' stacked) becomes Ḡ_Z:
+/// Ḡ_Zp = cos ⊙ Ḡ_Hp − sin ⊙ Σ_d Ż_d ⊙ Ḡ_Ḣd;  Ḡ_Żd = cos ⊙ Ḡ_Ḣd.
+fn sine_backward(g: &mut [f32], z: &[f32], s: &[f32], cos: &[f32], n: usize, t: usize, w: usize) {
+    let (gp, gt) = g.split_at_mut(n * w);
+    for (i, gpv) in gp.iter_mut().enumerate() {
+        let mut cross = 0.0;
+        for d in 0..t {
+            let j = d * n * w + i;
+            cross += z[n * w + j] * gt[j];
+            gt[j] *= cos[i];
+        }
+        *gpv = cos[i] * *gpv - s[i] * cross;
+    }
+}
