@@ -1,0 +1,4 @@
+//! Arbitrary bytes straight into `Model::from_bytes` (checks in src/lib.rs).
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| dynaslice_fuzz::check(data));

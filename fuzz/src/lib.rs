@@ -1,0 +1,89 @@
+//! What both fuzz targets check on every input (see docs/model-format.md, "Robustness").
+//!
+//! 1. `Model::from_bytes` returns, without panicking or touching memory outside the input
+//!    (AddressSanitizer, which `cargo fuzz` enables, turns any stray read into a crash).
+//! 2. An accepted input is canonical: re-writing the model it decodes to gives back exactly the
+//!    input bytes. The format leaves no byte free (offsets are implied, padding must be zero), so
+//!    any accepted file that does not round-trip is a validation hole.
+//! 3. Every query of an accepted model succeeds: single points (f, ∇f, ∂f/∂t, label) and every
+//!    batch form, including empty batches and batches longer than one block. Values are not
+//!    checked: a hostile but finite model may overflow to ±∞ and NaN, which is allowed.
+
+use dynaslice_core::format::ModelWriter;
+use dynaslice_core::{crc32, Model, Scratch, UNDEFINED_LABEL};
+use std::cell::RefCell;
+
+thread_local! {
+    /// One batch scratch (≈ 330 KiB) for the whole run rather than one per input: allocating
+    /// and zeroing it each time would dominate the execution rate.
+    static SCRATCH: RefCell<Box<Scratch>> = RefCell::new(Scratch::boxed());
+}
+
+/// Rewrites the last 4 bytes as the CRC-32 of the bytes before them.
+pub fn fix_crc(bytes: &mut [u8]) {
+    if let Some(body_len) = bytes.len().checked_sub(4) {
+        let crc = crc32(&bytes[..body_len]);
+        bytes[body_len..].copy_from_slice(&crc.to_le_bytes());
+    }
+}
+
+/// Runs checks 1–3 on `bytes`, placed at a 64-byte aligned address first: libFuzzer's buffers
+/// are heap copies with no alignment promise, and `from_bytes` rightly refuses misaligned
+/// weights, which would hide every deeper check behind `Error::Misaligned`.
+pub fn check(bytes: &[u8]) {
+    let mut buf = vec![0u8; bytes.len() + 64];
+    let start = buf.as_ptr().align_offset(64);
+    buf[start..start + bytes.len()].copy_from_slice(bytes);
+    let aligned = &buf[start..start + bytes.len()];
+
+    let Ok(model) = Model::from_bytes(aligned) else {
+        return;
+    };
+    let rewritten = ModelWriter::from_model(&model).try_to_bytes();
+    assert!(
+        rewritten.as_deref() == Ok(bytes),
+        "accepted a file that is not the canonical encoding of its model"
+    );
+    query_everything(&model);
+}
+
+fn query_everything(model: &Model) {
+    let k = model.num_classes();
+    let points = [
+        ([0.0, 0.0, 0.0], 0.0),
+        ([0.3, -0.7, 0.9], 0.25),
+        ([-1.0, 1.0, -1.0], 1.0),
+        ([1e30, -1e30, 0.0], -1e30),
+        ([f32::NAN, 0.0, f32::INFINITY], 0.5),
+    ];
+    let (mut f, mut g, mut d) = (vec![0.0; k], vec![[0.0; 3]; k], vec![0.0; k]);
+    for &(x, t) in &points {
+        model.eval(x, t, &mut f).expect("eval");
+        model.eval_grad(x, t, &mut f, &mut g).expect("eval_grad");
+        model
+            .eval_jacobian(x, t, &mut f, &mut g, &mut d)
+            .expect("eval_jacobian");
+        let label = model.label(x, t);
+        assert!(label as usize <= k || label == UNDEFINED_LABEL);
+    }
+    SCRATCH.with_borrow_mut(|scratch| {
+        for n in [0, 1, 13] {
+            let xyz: Vec<[f32; 3]> = (0..n).map(|i| points[i % points.len()].0).collect();
+            let t: Vec<f32> = (0..n).map(|i| points[i % points.len()].1).collect();
+            let (mut f, mut g, mut d) = (vec![0.0; n * k], vec![[0.0; 3]; n * k], vec![0.0; n * k]);
+            let mut labels = vec![0u32; n];
+            model
+                .eval_batch(scratch, &xyz, &t, &mut f)
+                .expect("eval_batch");
+            model
+                .eval_jacobian_batch(scratch, &xyz, &t, &mut f, &mut g, &mut d)
+                .expect("eval_jacobian_batch");
+            model
+                .label_batch(scratch, &xyz, &t, &mut labels)
+                .expect("label_batch");
+            assert!(labels
+                .iter()
+                .all(|&l| l as usize <= k || l == UNDEFINED_LABEL));
+        }
+    });
+}
