@@ -2,3 +2,5 @@
 //! and metrics. The `dynaslice` command line is a thin layer over this library.
 
 pub mod train;
+pub mod cli;
+pub mod model_file;

@@ -1,0 +1,39 @@
+//! The `dynaslice` command line: one file per subcommand, each a thin layer over the library.
+
+mod info;
+mod query;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Reconstruct moving multi-structure 3D surfaces from sparse 2D cross-sections (DynaSlice).
+#[derive(Parser, Debug)]
+#[command(name = "dynaslice", version, arg_required_else_help = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Print a model's dimensions, domain, time range, classes and metadata.
+    Info(info::Args),
+    /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
+    Query(query::Args),
+}
+
+/// Parses the process arguments and runs the chosen subcommand.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info(args) => info::run(args),
+        Command::Query(args) => query::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

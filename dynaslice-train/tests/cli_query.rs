@@ -1,0 +1,66 @@
+//! `dynaslice info` and `dynaslice query` on a model the test writes, and their errors.
+
+use dynaslice_core::format::ModelWriter;
+use dynaslice_core::{Domain, Model};
+use std::process::Command;
+
+fn dynaslice(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_dynaslice"))
+        .args(args)
+        .output()
+        .expect("run dynaslice");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+#[test]
+fn info_and_query_report_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.dsm");
+    let mut w = ModelWriter::random_siren(&[16, 16], 2, 4);
+    w.classes = vec![("liver".into(), 5), ("spleen".into(), 1)];
+    w.domain = Domain {
+        center: [10.0, 0.0, -5.0],
+        scale: [50.0; 3],
+        time_origin: 0.0,
+        time_span: 0.8,
+        output_scale: 50.0,
+    };
+    let bytes = w.to_bytes();
+    std::fs::write(&path, &bytes).unwrap();
+    let p = path.to_str().unwrap();
+
+    let (ok, out, _) = dynaslice(&["info", p]);
+    assert!(ok);
+    assert!(
+        out.contains("\"liver\" (source label 5)") && out.contains("[16, 16]"),
+        "{out}"
+    );
+
+    let (ok, out, err) = dynaslice(&["query", p, "12.5", "-3", "0", "0.4"]);
+    assert!(ok, "{err}");
+    let model = Model::from_bytes(&bytes).unwrap();
+    let mut f = [0.0; 2];
+    model.eval([12.5, -3.0, 0.0], 0.4, &mut f).unwrap();
+    let line = out.lines().find(|l| l.contains("liver")).unwrap();
+    let printed: f32 = line.split_whitespace().nth(2).unwrap().parse().unwrap();
+    assert!((printed - f[0]).abs() < 1e-5, "{printed} vs {}", f[0]);
+    assert!(out.contains(&format!("label {}", model.label([12.5, -3.0, 0.0], 0.4))));
+
+    let mut corrupt = bytes.clone();
+    corrupt[300] ^= 1;
+    std::fs::write(&path, &corrupt).unwrap();
+    let (ok, _, err) = dynaslice(&["query", p, "0", "0", "0", "0"]);
+    assert!(
+        !ok && err.contains("CRC mismatch") && err.contains("m.dsm"),
+        "{err}"
+    );
+    let (ok, _, err) = dynaslice(&["info", dir.path().join("missing.dsm").to_str().unwrap()]);
+    assert!(
+        !ok && err.contains("cannot read model") && err.contains("missing.dsm"),
+        "{err}"
+    );
+}
