@@ -4,14 +4,17 @@
 //! - [`passes`]: forward with spatial tangents and the matching backward pass.
 //! - [`loss`]: the loss terms and their gradients with respect to f and ∇ₓf.
 //! - [`objective`]: the loss and gradient of one batch over worker threads.
-//! - [`adam`]: the optimiser.
+//! - [`adam`]: the optimiser; [`checkpoint`]: resumable state.
+//! - [`trainer`]: the loop, with its schedule, time limit and checkpoints.
 
 pub mod adam;
+pub mod checkpoint;
 pub mod loss;
 mod matmul;
 pub mod network;
 pub mod objective;
 pub mod passes;
+pub mod trainer;
 
 #[cfg(test)]
 mod gradient_check;

@@ -9,7 +9,7 @@ use dynaslice_core::{Domain, Layout};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-/// SIREN's ω₀ (Sitzmann et al. 2020): the frequency scale of the first layer.
+/// SIREN's ω₀ (Sitzmann et al. 2020): the default frequency scale of the first layer.
 pub const OMEGA_0: f32 = 30.0;
 
 /// Layout, parameters and the temporal band limit of a network being trained.
@@ -24,23 +24,23 @@ pub struct Network {
 }
 
 impl Network {
-    /// SIREN initialisation (vsitzmann/siren, modules.py) with ω₀ folded into the weights,
+    /// SIREN initialisation (vsitzmann/siren, modules.py) with ω₀ (SIREN uses 30) folded into the weights,
     /// which is the same function: sin(ω₀(Wx + b)) = sin((ω₀W)x + ω₀b).
     /// - First layer: ω₀·U(−1/fan_in, 1/fan_in) for ω_x (fan_in = 4 inputs); ω_t uniform in
     ///   [−ω_t^max, ω_t^max] (Eq. 4) or like ω_x without temporal control.
     /// - Hidden layers: ω₀·U(−√(6/fan_in)/ω₀, √(6/fan_in)/ω₀) = U(−√(6/fan_in), √(6/fan_in)).
     /// - Output layer: U(−√(6/fan_in)/ω₀, …) as SIREN's last linear layer, i.e. small outputs.
     /// - Biases: PyTorch's default U(−1/√fan_in, 1/√fan_in), times ω₀ for sine layers.
-    pub fn siren(layout: Layout, omega_t_max: f32, seed: u64) -> Network {
+    pub fn siren(layout: Layout, omega_0: f32, omega_t_max: f32, seed: u64) -> Network {
         let mut rng = Pcg64Mcg::seed_from_u64(seed);
         let mut params = Vec::with_capacity(layout.param_count());
         for l in 0..layout.num_layers() {
             let (fan_in, fan_out) = layout.layer_dims(l);
             let is_output = l + 1 == layout.num_layers();
             let bound = if l == 0 {
-                OMEGA_0 / fan_in as f32
+                omega_0 / fan_in as f32
             } else if is_output {
-                (6.0 / fan_in as f32).sqrt() / OMEGA_0
+                (6.0 / fan_in as f32).sqrt() / omega_0
             } else {
                 (6.0 / fan_in as f32).sqrt()
             };
@@ -52,7 +52,7 @@ impl Network {
                 };
                 params.extend((0..fan_out).map(|_| rng.random_range(-b..=b)));
             }
-            let bias_scale = if is_output { 1.0 } else { OMEGA_0 };
+            let bias_scale = if is_output { 1.0 } else { omega_0 };
             let bb = bias_scale / (fan_in as f32).sqrt();
             params.extend((0..fan_out).map(|_| rng.random_range(-bb..=bb)));
         }
