@@ -1,5 +1,6 @@
 //! The `dynaslice` command line: one file per subcommand, each a thin layer over the library.
 
+mod bench;
 mod info;
 mod query;
 
@@ -16,6 +17,8 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Measure the training step's speed against this machine's sgemm peak.
+    Bench(bench::Args),
     /// Print a model's dimensions, domain, time range, classes and metadata.
     Info(info::Args),
     /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
@@ -26,6 +29,7 @@ enum Command {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Bench(args) => bench::run(args),
         Command::Info(args) => info::run(args),
         Command::Query(args) => query::run(args),
     };

@@ -5,9 +5,11 @@
 //! - [`loss`]: the loss terms and their gradients with respect to f and ∇ₓf.
 //! - [`objective`]: the loss and gradient of one batch over worker threads.
 //! - [`adam`]: the optimiser; [`checkpoint`]: resumable state.
+//! - [`bench`]: step throughput against the machine's sgemm peak.
 //! - [`trainer`]: the loop, with its schedule, time limit and checkpoints.
 
 pub mod adam;
+pub mod bench;
 pub mod checkpoint;
 pub mod loss;
 mod matmul;

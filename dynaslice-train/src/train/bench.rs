@@ -1,0 +1,161 @@
+//! Throughput of the training step, next to this machine's sgemm peak measured in the same run.
+//!
+//! FLOP convention: matrix products only (2 FLOPs per multiply-add), counted from the scheme
+//! each set uses (see [`super::passes`]): with P = `Layout::macs_per_point`, a point with
+//! tangents costs 4P forward + 8P backward, a plain point P + 2P. Sines, the loss and Adam are
+//! not counted (they are what makes the step slower than its products).
+
+use super::loss::{ContourSample, LossWeights, PlaneSample};
+use super::matmul::{matmul, Mat, Op};
+use super::network::{Network, OMEGA_0};
+use super::objective::{Batch, Objective};
+use dynaslice_core::Layout;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use std::time::Instant;
+
+/// One configuration's measurement.
+#[derive(Clone, Debug)]
+pub struct StepReport {
+    /// Classes.
+    pub num_classes: usize,
+    /// Parameters of the network.
+    pub params: usize,
+    /// Median seconds per step.
+    pub seconds: f64,
+    /// Points (all sets) per second.
+    pub points_per_second: f64,
+    /// Matrix-product GFLOP/s.
+    pub gflops: f64,
+}
+
+/// sgemm reference throughput of this machine.
+#[derive(Clone, Copy, Debug)]
+pub struct Peak {
+    /// GFLOP/s of one thread on a 1024³ product.
+    pub single: f64,
+    /// GFLOP/s of `threads` threads each running their own 1024³ product.
+    pub all: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Measures the sgemm peak (the `gemm` crate, the trainer's own product) on `threads` threads.
+pub fn sgemm_peak(threads: usize, repeats: usize) -> Peak {
+    let n = 1024;
+    let a: Vec<f32> = (0..n * n).map(|i| (i % 7) as f32 * 0.1).collect();
+    let b = a.clone();
+    let once = || {
+        let mut c = vec![0.0f32; n * n];
+        let start = Instant::now();
+        matmul(
+            &mut c,
+            false,
+            Mat::new(&a, n, n),
+            Op::N,
+            Mat::new(&b, n, n),
+            Op::N,
+        );
+        2.0 * (n * n * n) as f64 / start.elapsed().as_secs_f64() / 1e9
+    };
+    let single = median((0..repeats).map(|_| once()).collect());
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool");
+    let all = median(
+        (0..repeats)
+            .map(|_| {
+                let start = Instant::now();
+                pool.broadcast(|_| once());
+                threads as f64 * 2.0 * (n * n * n) as f64 / start.elapsed().as_secs_f64() / 1e9
+            })
+            .collect(),
+    );
+    Peak { single, all }
+}
+
+/// Random samples with `per_class` contour and plane samples per class and `space` space-time
+/// samples (the cost does not depend on where the samples are).
+pub fn random_batch(k: usize, per_class: usize, space: usize, seed: u64) -> Batch {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let mut point = || {
+        [
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(0.0..1.0),
+        ]
+    };
+    let mut b = Batch::default();
+    for c in 0..k as u32 {
+        for _ in 0..per_class {
+            b.contour_x.push(point());
+            b.contour.push(ContourSample {
+                class: c,
+                normal: [1.0, 0.0, 0.0],
+                weight: 1.0 / per_class as f32,
+            });
+            b.plane_x.push(point());
+            b.plane.push(PlaneSample {
+                class: c,
+                target: 0.1,
+                absent: false,
+                weight: 1.0 / per_class as f32,
+            });
+        }
+    }
+    b.space_x = (0..space).map(|_| point()).collect();
+    b
+}
+
+/// Median time of a training step (loss, gradient; no sampling) at `widths` with K classes.
+pub fn step(
+    widths: &[u32],
+    k: usize,
+    per_class: usize,
+    space: usize,
+    threads: usize,
+    repeats: usize,
+) -> StepReport {
+    let layout = Layout::new(widths, k as u32).expect("valid benchmark layout");
+    let net = Network::siren(layout, OMEGA_0, 10.0, 1);
+    let batch = random_batch(k, per_class, space, 2);
+    let max_set = batch.contour_x.len().max(batch.space_x.len());
+    let mut objective = Objective::new(&net, threads, max_set);
+    let weights = LossWeights {
+        orientation: 0.1,
+        plane: 0.1,
+        regulariser: 0.05,
+        alpha: 50.0,
+    };
+    let mut grad = vec![0.0; net.params.len()];
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool");
+    pool.install(|| objective.evaluate(&net, &batch, &weights, &mut grad)); // warm-up
+    let seconds = median(
+        (0..repeats)
+            .map(|_| {
+                let start = Instant::now();
+                pool.install(|| objective.evaluate(&net, &batch, &weights, &mut grad));
+                start.elapsed().as_secs_f64()
+            })
+            .collect(),
+    );
+    let p = layout.macs_per_point() as f64;
+    let with_tangents = (batch.contour_x.len() + batch.space_x.len()) as f64;
+    let plain = batch.plane_x.len() as f64;
+    let flops = 2.0 * p * (12.0 * with_tangents + 3.0 * plain);
+    StepReport {
+        num_classes: k,
+        params: layout.param_count(),
+        seconds,
+        points_per_second: (with_tangents + plain) / seconds,
+        gflops: flops / seconds / 1e9,
+    }
+}
