@@ -1,0 +1,97 @@
+//! Label-name tables: which name each source label value gets.
+//!
+//! Text, one entry per line: the label value, then the name (the rest of the line, trimmed), the
+//! two separated by whitespace or a comma. Blank lines and lines starting with `#` are ignored.
+//! ```text
+//! # TotalSegmentator labels
+//! 1 spleen
+//! 5, liver
+//! ```
+//! Labels without an entry are named `label <value>`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use super::error::{DataError, ErrorKind, Result};
+
+/// Label value → class name.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LabelNames(BTreeMap<i32, String>);
+
+impl LabelNames {
+    /// Parses a table; errors name the line.
+    pub fn parse(text: &str) -> Result<Self> {
+        let mut map = BTreeMap::new();
+        for (i, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let at = |what: String| DataError::new(ErrorKind::Syntax(what)).at_line(i + 1);
+            let split = line
+                .find(|c: char| c.is_whitespace() || c == ',')
+                .ok_or_else(|| at(format!("expected `<label> <name>`, found `{line}`")))?;
+            let (value, name) = line.split_at(split);
+            let name = name[1..].trim().trim_start_matches(',').trim();
+            let value: i32 = value
+                .parse()
+                .map_err(|_| at(format!("label `{value}` is not an integer")))?;
+            if name.is_empty() {
+                return Err(at(format!("label {value} has an empty name")));
+            }
+            if map.insert(value, name.to_string()).is_some() {
+                return Err(at(format!("label {value} is listed twice")));
+            }
+        }
+        Ok(LabelNames(map))
+    }
+
+    /// Reads a table file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text =
+            std::fs::read_to_string(path).map_err(|e| DataError::new(e.into()).in_file(path))?;
+        Self::parse(&text).map_err(|e| e.in_file(path))
+    }
+
+    /// Adds or replaces an entry.
+    pub fn insert(&mut self, label: i32, name: impl Into<String>) {
+        self.0.insert(label, name.into());
+    }
+
+    /// The name of `label`: its entry, or `label <value>`.
+    pub fn name(&self, label: i32) -> String {
+        self.0
+            .get(&label)
+            .cloned()
+            .unwrap_or_else(|| format!("label {label}"))
+    }
+
+    /// Serialises the table in the format [`LabelNames::parse`] reads.
+    pub fn to_text(&self) -> String {
+        self.0.iter().map(|(v, n)| format!("{v} {n}\n")).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_both_separators_and_round_trips() {
+        let t = LabelNames::parse("# c\n1 spleen\n\n5, right kidney\n").unwrap();
+        assert_eq!(t.name(1), "spleen");
+        assert_eq!(t.name(5), "right kidney");
+        assert_eq!(t.name(7), "label 7");
+        assert_eq!(LabelNames::parse(&t.to_text()).unwrap(), t);
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let e = LabelNames::parse("1 a\n1 b\n").unwrap_err();
+        assert_eq!(e.location.line, Some(2));
+        assert!(e.to_string().contains("twice"), "{e}");
+        let e = LabelNames::parse("x liver\n").unwrap_err();
+        assert!(e.to_string().contains("line 1"), "{e}");
+        assert!(LabelNames::parse("3\n").is_err());
+    }
+}
