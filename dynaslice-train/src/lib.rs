@@ -6,4 +6,3 @@ pub mod geometry;
 pub mod train;
 pub mod cli;
 pub mod model_file;
-pub mod plot;
