@@ -6,3 +6,4 @@ pub mod geometry;
 pub mod train;
 pub mod cli;
 pub mod model_file;
+pub mod plot;

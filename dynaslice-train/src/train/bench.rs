@@ -1,8 +1,8 @@
 //! Throughput of the training step, next to this machine's sgemm peak measured in the same run.
 //!
 //! FLOP convention: matrix products only (2 FLOPs per multiply-add), counted from the scheme
-//! each set uses (see [`super::passes`]): with P = `Layout::macs_per_point`, a point with
-//! tangents costs 4P forward + 8P backward, a plain point P + 2P. Sines, the loss and Adam are
+//! each set uses (see [`super::passes`]): with P = `Layout::macs_per_point`, a contour point
+//! costs 6P (one directional tangent), a space-time sample 12P (three), a plane sample 3P. Sines, the loss and Adam are
 //! not counted (they are what makes the step slower than its products).
 
 use super::loss::{ContourSample, LossWeights, PlaneSample};
@@ -94,9 +94,9 @@ pub fn random_batch(k: usize, per_class: usize, space: usize, seed: u64) -> Batc
     for c in 0..k as u32 {
         for _ in 0..per_class {
             b.contour_x.push(point());
+            b.contour_normal.push([1.0, 0.0, 0.0]);
             b.contour.push(ContourSample {
                 class: c,
-                normal: [1.0, 0.0, 0.0],
                 weight: 1.0 / per_class as f32,
             });
             b.plane_x.push(point());
@@ -148,14 +148,17 @@ pub fn step(
             .collect(),
     );
     let p = layout.macs_per_point() as f64;
-    let with_tangents = (batch.contour_x.len() + batch.space_x.len()) as f64;
-    let plain = batch.plane_x.len() as f64;
-    let flops = 2.0 * p * (12.0 * with_tangents + 3.0 * plain);
+    let (contour, plain, space) = (
+        batch.contour_x.len() as f64,
+        batch.plane_x.len() as f64,
+        batch.space_x.len() as f64,
+    );
+    let flops = 2.0 * p * (6.0 * contour + 3.0 * plain + 12.0 * space);
     StepReport {
         num_classes: k,
         params: layout.param_count(),
         seconds,
-        points_per_second: (with_tangents + plain) / seconds,
+        points_per_second: (contour + plain + space) / seconds,
         gflops: flops / seconds / 1e9,
     }
 }

@@ -5,7 +5,7 @@
 use super::loss::{ContourSample, LossWeights, PlaneSample};
 use super::network::Network;
 use super::objective::{Batch, Objective};
-use super::passes::Workspace;
+use super::passes::{Tangents, Workspace};
 use dynaslice_core::{Domain, Layout, Model};
 use proptest::prelude::*;
 
@@ -48,10 +48,10 @@ fn reference_point(layout: &Layout, p: &[f64], x: [f64; 4]) -> (Vec<f64>, Vec<[f
 fn reference_loss(layout: &Layout, p: &[f64], b: &Batch, w: &LossWeights) -> f64 {
     let wide = |x: [f32; 4]| x.map(|v| v as f64);
     let mut loss = 0.0;
-    for (x, s) in b.contour_x.iter().zip(&b.contour) {
+    for ((x, s), normal) in b.contour_x.iter().zip(&b.contour).zip(&b.contour_normal) {
         let (f, g) = reference_point(layout, p, wide(*x));
         let c = s.class as usize;
-        let dot: f64 = (0..3).map(|d| g[c][d] * s.normal[d] as f64).sum();
+        let dot: f64 = (0..3).map(|d| g[c][d] * normal[d] as f64).sum();
         loss += s.weight as f64 * (f[c].abs() + w.orientation as f64 * (-dot).max(0.0));
     }
     for (x, s) in b.plane_x.iter().zip(&b.plane) {
@@ -88,11 +88,11 @@ fn batch_strategy(k: u32) -> impl Strategy<Value = Batch> {
     )
         .prop_map(|(contour, plane, space)| Batch {
             contour_x: contour.iter().map(|c| c.0).collect(),
+            contour_normal: contour.iter().map(|c| c.2).collect(),
             contour: contour
                 .iter()
                 .map(|c| ContourSample {
                     class: c.1,
-                    normal: c.2,
                     weight: 1.0 / contour.len() as f32,
                 })
                 .collect(),
@@ -172,7 +172,7 @@ proptest! {
         let x = &batch.space_x;
         let n = x.len();
         let mut ws = Workspace::new(&net, n, 3);
-        ws.forward(&net, x);
+        ws.forward(&net, x, Tangents::Axes);
         let out = ws.outputs(n);
         for (i, p) in x.iter().enumerate() {
             let (mut f, mut g) = (vec![0.0; k], vec![[0.0; 3]; k]);

@@ -58,13 +58,12 @@ impl LossTerms {
     }
 }
 
-/// A contour sample: on the zero set of its class, with the in-plane outward normal.
+/// A contour sample: on the zero set of its class (its normal travels separately, as the
+/// direction of the pass's tangent).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContourSample {
     /// Class index (0-based channel).
     pub class: u32,
-    /// Outward unit normal, normalised frame (the trainer's scaling is isotropic).
-    pub normal: [f32; 3],
     /// Weight of this sample in the sums.
     pub weight: f32,
 }
@@ -86,8 +85,9 @@ pub struct PlaneSample {
 /// (denormal arithmetic is ~100x slower on x86).
 const EXP_CUTOFF: f32 = 80.0;
 
-/// Contour terms. `out` holds the stacked [F; Ḟ₁; Ḟ₂; Ḟ₃] of `samples.len()` points; the
-/// gradient is written to `g` in the same layout (zero elsewhere).
+/// Contour terms. `out` holds the stacked [F; D_n F] of `samples.len()` points, D_n F being
+/// the derivative along each point's outward normal n (so ⟨∇ₓf, n⟩ of Eq. 6); the gradient is
+/// written to `g` in the same layout (zero elsewhere).
 pub fn contour(
     out: &[f32],
     k: usize,
@@ -96,21 +96,17 @@ pub fn contour(
     g: &mut [f32],
 ) -> LossTerms {
     let n = samples.len();
-    g[..4 * n * k].fill(0.0);
+    g[..2 * n * k].fill(0.0);
     let mut terms = LossTerms::default();
     for (i, s) in samples.iter().enumerate() {
         let c = s.class as usize;
         let f = out[i * k + c];
         terms.surface += (s.weight * f.abs()) as f64;
         g[i * k + c] = s.weight * sign(f);
-        let dot: f32 = (0..3)
-            .map(|d| out[((1 + d) * n + i) * k + c] * s.normal[d])
-            .sum();
+        let dot = out[(n + i) * k + c];
         if -dot > 0.0 {
             terms.orientation += (s.weight * -dot) as f64;
-            for d in 0..3 {
-                g[((1 + d) * n + i) * k + c] = -w.orientation * s.weight * s.normal[d];
-            }
+            g[(n + i) * k + c] = -w.orientation * s.weight;
         }
     }
     terms

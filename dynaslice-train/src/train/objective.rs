@@ -6,7 +6,7 @@
 
 use super::loss::{self, ContourSample, LossTerms, LossWeights, PlaneSample};
 use super::network::Network;
-use super::passes::{Workspace, INPUT_DIM};
+use super::passes::{Tangents, Workspace, INPUT_DIM};
 use rayon::prelude::*;
 
 /// The samples of one optimisation step, in the network's normalised frame.
@@ -14,7 +14,9 @@ use rayon::prelude::*;
 pub struct Batch {
     /// Contour points (x, y, z, t).
     pub contour_x: Vec<[f32; INPUT_DIM]>,
-    /// Their class, normal and weight.
+    /// Their outward in-plane unit normals (the direction of Eq. 6's derivative).
+    pub contour_normal: Vec<[f32; 3]>,
+    /// Their class and weight.
     pub contour: Vec<ContourSample>,
     /// Plane samples (x, y, z, t).
     pub plane_x: Vec<[f32; INPUT_DIM]>,
@@ -25,6 +27,7 @@ pub struct Batch {
 }
 
 struct Worker {
+    directional: Workspace,
     with_gradient: Workspace,
     plain: Workspace,
     g_out: Vec<f32>,
@@ -49,6 +52,7 @@ impl Objective {
         let k = net.layout.num_classes();
         let workers = (0..workers)
             .map(|_| Worker {
+                directional: Workspace::new(net, cap, 1),
                 with_gradient: Workspace::new(net, cap, 3),
                 plain: Workspace::new(net, cap, 0),
                 g_out: vec![0.0; 4 * cap * k],
@@ -77,29 +81,33 @@ impl Objective {
             let c = chunk(batch.contour_x.len(), parts, i);
             if !c.is_empty() {
                 let x = &batch.contour_x[c.clone()];
-                w.with_gradient.forward(net, x);
-                let out = w.with_gradient.outputs(x.len());
+                let normals = Tangents::Along(&batch.contour_normal[c.clone()]);
+                w.directional.forward(net, x, normals);
+                let out = w.directional.outputs(x.len());
                 let t = loss::contour(out, k, &batch.contour[c], weights, &mut w.g_out);
                 w.terms.add(&t);
-                w.with_gradient.backward(net, x, &w.g_out, &mut w.grad);
+                w.directional
+                    .backward(net, x, normals, &w.g_out, &mut w.grad);
             }
             let c = chunk(batch.plane_x.len(), parts, i);
             if !c.is_empty() {
                 let x = &batch.plane_x[c.clone()];
-                w.plain.forward(net, x);
+                w.plain.forward(net, x, Tangents::None);
                 let out = w.plain.outputs(x.len());
                 let t = loss::plane(out, k, &batch.plane[c], weights, &mut w.g_out);
                 w.terms.add(&t);
-                w.plain.backward(net, x, &w.g_out, &mut w.grad);
+                w.plain
+                    .backward(net, x, Tangents::None, &w.g_out, &mut w.grad);
             }
             let c = chunk(batch.space_x.len(), parts, i);
             if !c.is_empty() {
                 let x = &batch.space_x[c];
-                w.with_gradient.forward(net, x);
+                w.with_gradient.forward(net, x, Tangents::Axes);
                 let out = w.with_gradient.outputs(x.len());
                 let t = loss::space_time(out, k, x.len(), space_weight, weights, &mut w.g_out);
                 w.terms.add(&t);
-                w.with_gradient.backward(net, x, &w.g_out, &mut w.grad);
+                w.with_gradient
+                    .backward(net, x, Tangents::Axes, &w.g_out, &mut w.grad);
             }
         });
         grad.fill(0.0);

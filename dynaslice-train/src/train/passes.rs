@@ -1,8 +1,8 @@
 //! Hand-written forward and backward passes of the network over a batch, with forward-mode
 //! spatial tangents, so that losses on f and on ∇ₓf have exact parameter gradients.
 //!
-//! Rows are stacked as S = [H; Ḣ₁; Ḣ₂; Ḣ₃] (primal, then one tangent group per spatial axis;
-//! `tangents = 0` keeps only H), so every layer is one matrix product forward and two backward:
+//! Rows are stacked as S = [H; Ḣ₁; …; Ḣ_T] (the primal, then one group per tangent), so every
+//! layer is one matrix product forward and two backward:
 //!
 //! ```text
 //! forward   Z = S Wᵀ (+ b on the primal rows)          H' = sin Z_p,  Ḣ'_d = cos Z_p ⊙ Ż_d
@@ -10,16 +10,22 @@
 //!           ∂Wᵀ += Sᵀ Ḡ_Z,   ∂b += Σ_rows Ḡ_Zp,   Ḡ_S = Ḡ_Z W
 //! ```
 //!
-//! Cost (M = one layer's product over the batch's N primal rows): forward 4M, backward 8M, so
-//! 12M per point whatever K is. The alternative, reverse-over-reverse, costs about 6M per point
-//! per channel whose gradient the loss needs: cheaper for contour points (one channel each),
-//! dearer for space-time samples when K ≥ 2 (eikonal on every channel: 6KM vs 12M). Contour
-//! points use this same scheme for now (12M vs 6M: a 2x saving left on the table for the
-//! contour set, noted in docs/performance.md); points that need no gradient (plane samples)
-//! take the plain 3M forward/backward with `tangents = 0`.
+//! Cost, with M one layer's product over the N primal rows: (1 + T)M forward and 2(1 + T)M
+//! backward, i.e. 3(1 + T)M per point. The trainer picks T per point set ([`Tangents`]):
+//! - plane samples need f only: T = 0, **3M**;
+//! - contour points need f^k and only ⟨∇ₓf^k, n⟩ (Eq. 6 is a directional derivative along the
+//!   in-plane normal): T = 1 along n, **6M** — the cost of reverse-over-reverse for their one
+//!   channel, without a second backward scheme;
+//! - space-time samples need the whole ∇ₓf^k of every channel (Eq. 8): T = 3 axes, **12M**
+//!   whatever K is. Reverse-over-reverse would cost about 6M per channel (a forward, a
+//!   backward seeded on channel k for ∇ₓf^k, then the reverse of both), i.e. 6KM: equal at
+//!   K = 2, and 4x dearer at the multi-organ K = 8. For K = 1 it would save half of this set's
+//!   cost; we keep one scheme (T = 3) for all K and record the measured step times in
+//!   docs/performance.md.
 //!
-//! The first layer's input tangents are the unit vectors, so Ż₀,d is row d of W₀ᵀ (ω_x), and
-//! its weight gradient gets Σ_rows Ḡ_Ż₀,d added to row d.
+//! The first layer's input tangent for direction u is Σ_d u_d e_d, so Ż₀ = Σ_d u_d W₀ᵀ[d]
+//! (for the axes, row d of W₀ᵀ itself, i.e. ω_x), and its weight gradient gets Σ_rows u_d Ḡ_Ż₀
+//! added to row d.
 
 use super::matmul::{matmul, Mat, Op};
 use super::network::Network;
@@ -27,6 +33,37 @@ use dynaslice_core::sine::sin_cos;
 
 /// Inputs of the first layer: normalised x, y, z, t.
 pub const INPUT_DIM: usize = 4;
+
+/// The spatial tangents a pass carries.
+#[derive(Clone, Copy, Debug)]
+pub enum Tangents<'a> {
+    /// None: f only.
+    None,
+    /// ∂/∂x, ∂/∂y, ∂/∂z: the full spatial gradient, in three tangent groups.
+    Axes,
+    /// One directional derivative per point, along the given vector (one tangent group).
+    Along(&'a [[f32; 3]]),
+}
+
+impl Tangents<'_> {
+    /// Number of tangent groups T.
+    pub fn count(&self) -> usize {
+        match self {
+            Tangents::None => 0,
+            Tangents::Axes => 3,
+            Tangents::Along(_) => 1,
+        }
+    }
+
+    /// Component `d` of tangent group `group`'s input direction at point `i`.
+    fn component(&self, group: usize, i: usize, d: usize) -> f32 {
+        match self {
+            Tangents::None => 0.0,
+            Tangents::Axes => (group == d) as u8 as f32,
+            Tangents::Along(u) => u[i][d],
+        }
+    }
+}
 
 /// Buffers of one forward/backward pass over up to `capacity` points; allocated once and
 /// reused every step (no allocation per step).
@@ -47,9 +84,9 @@ pub struct Workspace {
 }
 
 impl Workspace {
-    /// Buffers for `capacity` points with 0 or 3 spatial tangents.
+    /// Buffers for `capacity` points carrying `tangents` tangent groups (see [`Tangents::count`]).
     pub fn new(net: &Network, capacity: usize, tangents: usize) -> Workspace {
-        assert!(tangents == 0 || tangents == 3, "tangents must be 0 or 3");
+        assert!(tangents <= 3, "at most 3 tangent groups");
         let rows = capacity * (1 + tangents);
         let layout = &net.layout;
         let widths = layout.widths();
@@ -76,14 +113,16 @@ impl Workspace {
         self.out.len() / (self.capacity * (1 + self.tangents)).max(1)
     }
 
-    /// Forward pass over `inputs` (normalised (x, y, z, t) per point).
-    pub fn forward(&mut self, net: &Network, inputs: &[[f32; INPUT_DIM]]) {
+    /// Forward pass over `inputs` (normalised (x, y, z, t) per point) carrying `tangents`,
+    /// which must have this workspace's tangent count (and one direction per point).
+    pub fn forward(&mut self, net: &Network, inputs: &[[f32; INPUT_DIM]], tangents: Tangents) {
         let n = inputs.len();
         assert!(
             n <= self.capacity,
             "{n} points > workspace capacity {}",
             self.capacity
         );
+        check_tangents(tangents, self.tangents, n);
         let layout = &net.layout;
         let t = self.tangents;
         let rows = n * (1 + t);
@@ -102,11 +141,18 @@ impl Workspace {
                 }
             }
         }
-        for d in 0..t {
-            let group = &mut z0[(1 + d) * n * w0..(2 + d) * n * w0];
-            group
-                .chunks_exact_mut(w0)
-                .for_each(|r| r.copy_from_slice(&wt0[d * w0..(d + 1) * w0]));
+        for g in 0..t {
+            let group = &mut z0[(1 + g) * n * w0..(2 + g) * n * w0];
+            for (i, row) in group.chunks_exact_mut(w0).enumerate() {
+                row.fill(0.0);
+                for d in 0..3 {
+                    let u = tangents.component(g, i, d);
+                    if u != 0.0 {
+                        let w = &wt0[d * w0..(d + 1) * w0];
+                        row.iter_mut().zip(w).for_each(|(r, w)| *r += u * w);
+                    }
+                }
+            }
         }
         activate(
             &self.z[0][..rows * w0],
@@ -153,10 +199,12 @@ impl Workspace {
         &mut self,
         net: &Network,
         inputs: &[[f32; INPUT_DIM]],
+        tangents: Tangents,
         g_out: &[f32],
         grad: &mut [f32],
     ) {
         let n = inputs.len();
+        check_tangents(tangents, self.tangents, n);
         let layout = &net.layout;
         let t = self.tangents;
         let rows = n * (1 + t);
@@ -189,7 +237,7 @@ impl Workspace {
                 gb.iter_mut().zip(grow).for_each(|(a, b)| *a += b);
             }
             if l == 0 {
-                // ∂W₀ᵀ = Xᵀ Ḡ_Zp + Σ_rows Ḡ_Ż_d on row d (the input tangents are unit vectors).
+                // ∂W₀ᵀ = Xᵀ Ḡ_Zp + Σ_g Σ_rows u_g,d Ḡ_Ż_g on row d (u: the input directions).
                 for (x, grow) in inputs
                     .iter()
                     .zip(g_cur[..n * fan_out].chunks_exact(fan_out))
@@ -201,13 +249,16 @@ impl Workspace {
                             .for_each(|(a, b)| *a += xd * b);
                     }
                 }
-                for d in 0..t {
-                    let group = &g_cur[(1 + d) * n * fan_out..(2 + d) * n * fan_out];
-                    for grow in group.chunks_exact(fan_out) {
-                        gw[d * fan_out..(d + 1) * fan_out]
-                            .iter_mut()
-                            .zip(grow)
-                            .for_each(|(a, b)| *a += b);
+                for g in 0..t {
+                    let group = &g_cur[(1 + g) * n * fan_out..(2 + g) * n * fan_out];
+                    for (i, grow) in group.chunks_exact(fan_out).enumerate() {
+                        for d in 0..3 {
+                            let u = tangents.component(g, i, d);
+                            if u != 0.0 {
+                                let row = &mut gw[d * fan_out..(d + 1) * fan_out];
+                                row.iter_mut().zip(grow).for_each(|(a, b)| *a += u * b);
+                            }
+                        }
                     }
                 }
             } else {
@@ -220,6 +271,17 @@ impl Workspace {
         }
         self.g_a = g_cur;
         self.g_b = g_next;
+    }
+}
+
+fn check_tangents(tangents: Tangents, groups: usize, n: usize) {
+    assert_eq!(
+        tangents.count(),
+        groups,
+        "tangents do not match the workspace"
+    );
+    if let Tangents::Along(u) = tangents {
+        assert_eq!(u.len(), n, "one direction per point");
     }
 }
 

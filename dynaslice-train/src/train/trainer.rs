@@ -204,6 +204,7 @@ mod tests {
             let mut rng = Pcg64Mcg::seed_from_u64(seed ^ step.wrapping_mul(0x9E37_79B9_7F4A_7C15));
             let n = 256;
             b.contour_x.clear();
+            b.contour_normal.clear();
             b.contour.clear();
             b.plane_x.clear();
             b.plane.clear();
@@ -215,9 +216,9 @@ mod tests {
                 let rc = (r * r - z * z).max(0.0).sqrt();
                 let a = rng.random_range(0.0..std::f32::consts::TAU);
                 b.contour_x.push([rc * a.cos(), rc * a.sin(), z, t]);
+                b.contour_normal.push([a.cos(), a.sin(), 0.0]);
                 b.contour.push(ContourSample {
                     class: 0,
-                    normal: [a.cos(), a.sin(), 0.0],
                     weight: 1.0 / n as f32,
                 });
                 let (px, py) = (
