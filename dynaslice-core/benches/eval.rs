@@ -1,1 +1,275 @@
-fn main() {}
+//! Single-thread throughput of model evaluation, and the sgemm peak it is judged against.
+//!
+//! `cargo bench -p dynaslice-core --features std --bench eval` runs every benchmark through
+//! criterion and then prints a summary table (points/s, GFLOP/s and % of the sgemm peak) that
+//! `docs/performance.md` quotes. The table's times are criterion's own samples: each benchmark
+//! records the per-iteration time of every sample it hands criterion, and the table uses the
+//! median of the measurement samples, as criterion's "median" estimate does.
+//!
+//! FLOP convention: 2 · [`Layout::macs_per_point`] per point for f, 4x that for f and ∇ₓf
+//! (primal and three tangent rows go through every matrix product). Sines, cosines, biases and
+//! the first layer's copies are not counted, so GFLOP/s is the rate of useful matrix work.
+//!
+//! The sgemm peak is the best of two libraries, measured in the same run: `gemm` (AVX2+FMA on
+//! stable Rust; its AVX-512 kernels need its `nightly` feature, so run the bench with
+//! `cargo +nightly bench … --features std,gemm/nightly` to include them) and `matrixmultiply`
+//! (AVX-512 on stable), both at a large shape and at the block shape our kernels multiply.
+
+use criterion::measurement::WallTime;
+use criterion::{BenchmarkGroup, Criterion, Throughput};
+use dynaslice_core::format::{ModelWriter, WeightType};
+use dynaslice_core::{Layout, Model, Scratch};
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+/// Samples per benchmark: criterion's minimum is 10; 15 keeps the median stable on a shared,
+/// noisy machine while the whole run stays well under two minutes.
+const SAMPLES: usize = 15;
+/// Points per batched call: enough blocks (16 to 64 points each) that per-call costs vanish.
+const BATCH: usize = 1024;
+/// Points per single-point iteration (one `eval` call each).
+const SINGLE: usize = 64;
+/// Classes of the benchmark models (a multi-class anatomy model).
+const CLASSES: u32 = 8;
+
+/// One measured benchmark: its label and work per iteration.
+struct Row {
+    label: String,
+    points: usize,
+    flops: f64,
+    seconds: Option<f64>,
+}
+
+/// Runs `routine` as benchmark `id` (one iteration = `points` points or `flops` FLOPs) and
+/// returns the median of criterion's per-iteration sample times, or `None` when a filter on the
+/// command line skipped it.
+fn measure(
+    group: &mut BenchmarkGroup<WallTime>,
+    id: &str,
+    points: usize,
+    mut routine: impl FnMut(),
+) -> Option<f64> {
+    group.throughput(Throughput::Elements(points as u64));
+    let mut times = Vec::new();
+    group.bench_function(id, |b| {
+        b.iter_custom(|iters| {
+            let start = Instant::now();
+            for _ in 0..iters {
+                routine();
+            }
+            let elapsed = start.elapsed();
+            times.push(elapsed.as_secs_f64() / iters as f64);
+            elapsed
+        })
+    });
+    // Criterion warms up through the same closure first; the measurement samples come last.
+    let first = times.len().saturating_sub(SAMPLES);
+    let samples = &mut times[first..];
+    samples.sort_by(f64::total_cmp);
+    match samples.len() {
+        0 => None,
+        n if n % 2 == 1 => Some(samples[n / 2]),
+        n => Some(0.5 * (samples[n / 2 - 1] + samples[n / 2])),
+    }
+}
+
+/// C = A·B for row-major A (m × k) and B (k × n) with both libraries; returns the rows.
+fn sgemm(group: &mut BenchmarkGroup<WallTime>, m: usize, k: usize, n: usize) -> Vec<Row> {
+    let a: Vec<f32> = (0..m * k).map(|i| (i % 7) as f32 * 0.1).collect();
+    let b: Vec<f32> = (0..k * n).map(|i| (i % 5) as f32 * 0.1).collect();
+    let mut c = vec![0.0f32; m * n];
+    let flops = 2.0 * (m * k * n) as f64;
+    let shape = format!("{m}x{k}x{n}");
+    let gemm_time = measure(group, &format!("gemm/{shape}"), m, || {
+        // SAFETY: the pointers and strides describe the three row-major buffers above.
+        unsafe {
+            gemm::gemm(
+                m,
+                n,
+                k,
+                c.as_mut_ptr(),
+                1,
+                n as isize,
+                false,
+                a.as_ptr(),
+                1,
+                k as isize,
+                b.as_ptr(),
+                1,
+                n as isize,
+                0.0,
+                1.0,
+                false,
+                false,
+                false,
+                gemm::Parallelism::None,
+            )
+        };
+        black_box(&mut c);
+    });
+    let mm_time = measure(group, &format!("matrixmultiply/{shape}"), m, || {
+        // SAFETY: as above.
+        unsafe {
+            matrixmultiply::sgemm(
+                m,
+                k,
+                n,
+                1.0,
+                a.as_ptr(),
+                k as isize,
+                1,
+                b.as_ptr(),
+                n as isize,
+                1,
+                0.0,
+                c.as_mut_ptr(),
+                n as isize,
+                1,
+            )
+        };
+        black_box(&mut c);
+    });
+    [("gemm", gemm_time), ("matrixmultiply", mm_time)]
+        .into_iter()
+        .map(|(lib, seconds)| Row {
+            label: format!("sgemm {lib} {shape}"),
+            points: m,
+            flops,
+            seconds,
+        })
+        .collect()
+}
+
+/// A model's bytes, copied to an allocation aligned for its weights (a `Vec<u8>` need not be).
+fn aligned(bytes: &[u8]) -> Vec<u64> {
+    let mut words = vec![0u64; bytes.len().div_ceil(8)];
+    bytemuck::cast_slice_mut::<u64, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
+    words
+}
+
+/// f and f+∇ₓf, single points and batches, for one model.
+fn model(c: &mut Criterion, name: &str, widths: &[u32], weight_type: WeightType) -> Vec<Row> {
+    let mut writer = ModelWriter::random_siren(widths, CLASSES, 1);
+    writer.weight_type = weight_type;
+    let raw = writer.to_bytes();
+    let words = aligned(&raw);
+    let bytes = &bytemuck::cast_slice::<u64, u8>(&words)[..raw.len()];
+    let model = Model::from_bytes(bytes).expect("valid benchmark model");
+    let layout: &Layout = model.layout();
+    let k = layout.num_classes();
+    let macs = layout.macs_per_point() as f64;
+    let dtype = match weight_type {
+        WeightType::F32 => "f32",
+        WeightType::F16 => "f16",
+    };
+    let label = format!("{name} {dtype}");
+    let xyz: Vec<[f32; 3]> = (0..BATCH)
+        .map(|i| {
+            let s = i as f32 * 0.618;
+            [s.sin() * 0.9, (1.3 * s).cos() * 0.8, (0.7 * s).sin() * 0.95]
+        })
+        .collect();
+    let t: Vec<f32> = (0..BATCH).map(|i| (i as f32 * 0.37).fract()).collect();
+    let mut scratch = Scratch::boxed();
+    let (mut f, mut grad) = (vec![0.0f32; BATCH * k], vec![[0.0f32; 3]; BATCH * k]);
+
+    let mut group = c.benchmark_group(label.replace(' ', "_"));
+    let mut rows = Vec::new();
+    let mut row = |query: &str, mode: &str, points: usize, flops_per_point: f64, s| {
+        rows.push(Row {
+            label: format!("{label} {query} {mode}"),
+            points,
+            flops: flops_per_point * points as f64,
+            seconds: s,
+        })
+    };
+
+    let s = measure(&mut group, "f/batch", BATCH, || {
+        model.eval_batch(&mut scratch, &xyz, &t, &mut f).unwrap();
+        black_box(&mut f);
+    });
+    row("f", "batch", BATCH, 2.0 * macs, s);
+    let s = measure(&mut group, "f+grad/batch", BATCH, || {
+        model
+            .eval_grad_batch(&mut scratch, &xyz, &t, &mut f, &mut grad)
+            .unwrap();
+        black_box(&mut grad);
+    });
+    row("f+grad", "batch", BATCH, 8.0 * macs, s);
+    let s = measure(&mut group, "f/point", SINGLE, || {
+        for (x, &t) in xyz[..SINGLE].iter().zip(&t) {
+            model.eval(*x, t, &mut f[..k]).unwrap();
+            black_box(&mut f);
+        }
+    });
+    row("f", "point", SINGLE, 2.0 * macs, s);
+    let s = measure(&mut group, "f+grad/point", SINGLE, || {
+        for (x, &t) in xyz[..SINGLE].iter().zip(&t) {
+            model.eval_grad(*x, t, &mut f[..k], &mut grad[..k]).unwrap();
+            black_box(&mut grad);
+        }
+    });
+    row("f+grad", "point", SINGLE, 8.0 * macs, s);
+    group.finish();
+    rows
+}
+
+fn main() {
+    let mut c = Criterion::default()
+        .sample_size(SAMPLES)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_millis(1200))
+        .without_plots()
+        .configure_from_args();
+
+    let mut group = c.benchmark_group("sgemm");
+    group
+        .sample_size(SAMPLES)
+        .warm_up_time(Duration::from_millis(300));
+    // Large: the whole batch as one product (N points × 256 × 256). Block: what our kernels
+    // multiply per layer and block (64 rows × 256 × 256), where packing costs more per FLOP.
+    let mut peaks = sgemm(&mut group, 4096, 256, 256);
+    peaks.extend(sgemm(&mut group, 64, 256, 256));
+    group.finish();
+
+    let mut rows = Vec::new();
+    // The paper's size: width 256, 3 hidden 256×256 layers (≈ 200K parameters).
+    let paper: &[u32] = &[256; 4];
+    // A firmware size: width 64, 3 hidden layers.
+    let firmware: &[u32] = &[64; 4];
+    for weight_type in [WeightType::F32, WeightType::F16] {
+        rows.extend(model(&mut c, "w256x4", paper, weight_type));
+        rows.extend(model(&mut c, "w64x4", firmware, weight_type));
+    }
+
+    let gflops = |r: &Row| r.seconds.map(|s| r.flops / s * 1e-9);
+    let peak = peaks
+        .iter()
+        .filter_map(|r| gflops(r).map(|g| (g, &r.label)))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    println!(
+        "\nSummary (one thread, kernel \"{}\", medians of {SAMPLES} samples; \
+         FLOPs = 2·MACs of the matrix products, ×4 for f+grad)",
+        dynaslice_core::kernel_name()
+    );
+    println!(
+        "{:<42} {:>14} {:>10} {:>8}",
+        "benchmark", "points/s", "GFLOP/s", "% peak"
+    );
+    for r in peaks.iter().chain(&rows) {
+        let (Some(s), Some(g)) = (r.seconds, gflops(r)) else {
+            continue;
+        };
+        let pct = peak.map_or(String::from("-"), |(p, _)| format!("{:.0}%", 100.0 * g / p));
+        let points = if r.label.starts_with("sgemm") {
+            String::from("-")
+        } else {
+            format!("{:.4e}", r.points as f64 / s)
+        };
+        println!("{:<42} {points:>14} {g:>10.1} {pct:>8}", r.label);
+    }
+    if let Some((p, label)) = peak {
+        println!("sgemm peak: {p:.1} GFLOP/s ({label})");
+    }
+    c.final_summary();
+}
