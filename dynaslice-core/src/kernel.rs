@@ -277,35 +277,19 @@ mod x86 {
                 masks: [$mask; 2],
             ) {
                 const NR: usize = 2 * $lanes;
-                const UNROLL: usize = 4;
                 // SAFETY: the caller guarantees every pointer offset below is in bounds.
                 unsafe {
-                    // One pointer per row: indexing `a` by r·kdim + k made LLVM recompute the
-                    // row offsets with integer ops inside the k loop (≈ 15 extra µops per 16
-                    // FMAs, measurably slower).
-                    let rows: [*const f32; R] = core::array::from_fn(|r| a.add(r * kdim));
                     let mut acc: [[$vec; 2]; R] = core::array::from_fn(|r| {
                         core::array::from_fn(|v| $loadc(c.add(r * ldc + v * $lanes), masks[v]))
                     });
-                    let mut step = |k: usize| {
+                    for k in 0..kdim {
                         let b0 = $load(panel.add(k * NR));
                         let b1 = $load(panel.add(k * NR + $lanes));
-                        for (acc_r, row) in acc.iter_mut().zip(&rows) {
-                            let av = $set1(*row.add(k));
+                        for (r, acc_r) in acc.iter_mut().enumerate() {
+                            let av = $set1(*a.add(r * kdim + k));
                             acc_r[0] = $fmadd(av, b0, acc_r[0]);
                             acc_r[1] = $fmadd(av, b1, acc_r[1]);
                         }
-                    };
-                    let mut k = 0;
-                    while k + UNROLL <= kdim {
-                        for u in 0..UNROLL {
-                            step(k + u);
-                        }
-                        k += UNROLL;
-                    }
-                    while k < kdim {
-                        step(k);
-                        k += 1;
                     }
                     for (r, acc_r) in acc.iter().enumerate() {
                         for (v, acc_rv) in acc_r.iter().enumerate() {
