@@ -267,7 +267,9 @@ impl Model<'_> {
         Ok(())
     }
 
-    /// One point through the portable kernels with `ROWS = 1 + tangents` stack rows.
+    /// One point through the portable kernels with `ROWS = 1 + tangents` stack rows. Never
+    /// inlined: inlined into `point`, all three instances would share the largest frame.
+    #[inline(never)]
     fn point_rows<const ROWS: usize>(&self, x: [f32; 3], t: f32, tangents: Tangents, out: Outputs) {
         let mut a = [[0.0f32; MAX_WIDTH]; ROWS];
         let mut b = [[0.0f32; MAX_WIDTH]; ROWS];
