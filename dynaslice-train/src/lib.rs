@@ -3,6 +3,7 @@
 
 pub mod data;
 pub mod geometry;
+pub mod sampling;
 pub mod train;
 pub mod cli;
 pub mod model_file;

@@ -1,0 +1,110 @@
+//! [`SamplingIndex`]: everything the samplers need, precomputed once per sequence.
+
+use rayon::prelude::*;
+
+use crate::data::{Plane, Sequence};
+use crate::geometry::PolygonSdf;
+
+/// One (plane, class) annotation with its distance structure.
+#[derive(Debug)]
+pub(crate) struct AnnotationEntry {
+    /// Index into `SamplingIndex::planes`.
+    pub plane: usize,
+    pub class: u32,
+    /// `None` when the class is absent from the plane.
+    pub sdf: Option<PolygonSdf>,
+}
+
+/// A plane with its timestep's time.
+#[derive(Debug)]
+pub(crate) struct PlaneEntry {
+    pub plane: Plane,
+    pub time: f64,
+}
+
+/// Per class: annotation indices, split into contoured and absent, and the contoured ones'
+/// cumulative perimeters (for drawing contour points uniformly by arc length).
+#[derive(Debug, Default)]
+pub(crate) struct ClassEntry {
+    pub contoured: Vec<usize>,
+    pub absent: Vec<usize>,
+    pub cum_perimeter: Vec<f64>,
+}
+
+/// Precomputed sampling structures for a [`Sequence`]: a [`PolygonSdf`] for every contoured
+/// (plane, class) annotation, built in parallel, and per-class tables. Build it once; every
+/// sampler call afterwards only reads it.
+#[derive(Debug)]
+pub struct SamplingIndex {
+    pub(crate) planes: Vec<PlaneEntry>,
+    pub(crate) annotations: Vec<AnnotationEntry>,
+    pub(crate) classes: Vec<ClassEntry>,
+}
+
+impl SamplingIndex {
+    /// Builds the index (cost: one grid per contoured annotation; parallel over annotations).
+    pub fn new(seq: &Sequence) -> Self {
+        let planes: Vec<PlaneEntry> = seq
+            .frames()
+            .iter()
+            .flat_map(|f| {
+                f.planes.iter().map(move |p| PlaneEntry {
+                    plane: p.clone(),
+                    time: f.time,
+                })
+            })
+            .collect();
+        let jobs: Vec<(usize, usize)> = planes
+            .iter()
+            .enumerate()
+            .flat_map(|(pi, p)| (0..p.plane.annotations.len()).map(move |ai| (pi, ai)))
+            .collect();
+        let annotations: Vec<AnnotationEntry> = jobs
+            .par_iter()
+            .map(|&(pi, ai)| {
+                let plane = &planes[pi].plane;
+                let a = &plane.annotations[ai];
+                AnnotationEntry {
+                    plane: pi,
+                    class: a.class as u32,
+                    sdf: PolygonSdf::new(&a.polygons, Some((plane.roi.min, plane.roi.max))),
+                }
+            })
+            .collect();
+        let mut classes: Vec<ClassEntry> = (0..seq.classes().len())
+            .map(|_| ClassEntry::default())
+            .collect();
+        for (i, a) in annotations.iter().enumerate() {
+            let c = &mut classes[a.class as usize];
+            match &a.sdf {
+                Some(sdf) => {
+                    let acc = c.cum_perimeter.last().copied().unwrap_or(0.0) + sdf.perimeter();
+                    c.contoured.push(i);
+                    c.cum_perimeter.push(acc);
+                }
+                None => c.absent.push(i),
+            }
+        }
+        SamplingIndex {
+            planes,
+            annotations,
+            classes,
+        }
+    }
+
+    /// Number of classes.
+    pub fn class_count(&self) -> usize {
+        self.classes.len()
+    }
+
+    /// The exact in-plane signed distance of class `class` at plane coordinates `p` on plane
+    /// `plane` (planes numbered in sequence order, timestep by timestep), or `None` if that
+    /// plane does not outline the class.
+    pub fn plane_sdf(&self, plane: usize, class: usize, p: [f64; 2]) -> Option<f64> {
+        self.annotations
+            .iter()
+            .find(|a| a.plane == plane && a.class as usize == class)
+            .and_then(|a| a.sdf.as_ref())
+            .map(|s| s.distance(p))
+    }
+}
