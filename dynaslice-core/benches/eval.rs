@@ -4,7 +4,9 @@
 //! criterion and then prints a summary table (points/s, GFLOP/s and % of the sgemm peak) that
 //! `docs/performance.md` quotes. The table's times are criterion's own samples: each benchmark
 //! records the per-iteration time of every sample it hands criterion, and the table uses the
-//! median of the measurement samples, as criterion's "median" estimate does.
+//! median of the measurement samples, as criterion's "median" estimate does, and also the
+//! fastest sample: on a machine shared with other jobs the fastest sample is the least disturbed
+//! one, so "best" ratios are the steadier comparison between benchmarks run seconds apart.
 //!
 //! FLOP convention: 2 · [`Layout::macs_per_point`] per point for f, 4x that for f and ∇ₓf
 //! (primal and three tangent rows go through every matrix product). Sines, cosines, biases and
@@ -32,23 +34,33 @@ const SINGLE: usize = 64;
 /// Classes of the benchmark models (a multi-class anatomy model).
 const CLASSES: u32 = 8;
 
+/// Median and fastest of a benchmark's sample times, in seconds per iteration.
+#[derive(Clone, Copy)]
+struct Times {
+    median: f64,
+    best: f64,
+}
+
+/// Picks one statistic of [`Times`].
+type Stat = fn(Times) -> f64;
+
 /// One measured benchmark: its label and work per iteration.
 struct Row {
     label: String,
     points: usize,
     flops: f64,
-    seconds: Option<f64>,
+    times: Option<Times>,
 }
 
-/// Runs `routine` as benchmark `id` (one iteration = `points` points or `flops` FLOPs) and
-/// returns the median of criterion's per-iteration sample times, or `None` when a filter on the
-/// command line skipped it.
+/// Runs `routine` as benchmark `id` (one iteration = `points` points) and returns the median
+/// and fastest of criterion's per-iteration sample times, or `None` when a filter on the command
+/// line skipped it.
 fn measure(
     group: &mut BenchmarkGroup<WallTime>,
     id: &str,
     points: usize,
     mut routine: impl FnMut(),
-) -> Option<f64> {
+) -> Option<Times> {
     group.throughput(Throughput::Elements(points as u64));
     let mut times = Vec::new();
     group.bench_function(id, |b| {
@@ -66,11 +78,16 @@ fn measure(
     let first = times.len().saturating_sub(SAMPLES);
     let samples = &mut times[first..];
     samples.sort_by(f64::total_cmp);
-    match samples.len() {
-        0 => None,
-        n if n % 2 == 1 => Some(samples[n / 2]),
-        n => Some(0.5 * (samples[n / 2 - 1] + samples[n / 2])),
-    }
+    let n = samples.len();
+    let median = match n {
+        0 => return None,
+        n if n % 2 == 1 => samples[n / 2],
+        n => 0.5 * (samples[n / 2 - 1] + samples[n / 2]),
+    };
+    Some(Times {
+        median,
+        best: samples[0],
+    })
 }
 
 /// C = A·B for row-major A (m × k) and B (k × n) with both libraries; returns the rows.
@@ -131,11 +148,11 @@ fn sgemm(group: &mut BenchmarkGroup<WallTime>, m: usize, k: usize, n: usize) -> 
     });
     [("gemm", gemm_time), ("matrixmultiply", mm_time)]
         .into_iter()
-        .map(|(lib, seconds)| Row {
+        .map(|(lib, times)| Row {
             label: format!("sgemm {lib} {shape}"),
             points: m,
             flops,
-            seconds,
+            times,
         })
         .collect()
 }
@@ -180,7 +197,7 @@ fn model(c: &mut Criterion, name: &str, widths: &[u32], weight_type: WeightType)
             label: format!("{label} {query} {mode}"),
             points,
             flops: flops_per_point * points as f64,
-            seconds: s,
+            times: s,
         })
     };
 
@@ -242,34 +259,45 @@ fn main() {
         rows.extend(model(&mut c, "w64x4", firmware, weight_type));
     }
 
-    let gflops = |r: &Row| r.seconds.map(|s| r.flops / s * 1e-9);
-    let peak = peaks
-        .iter()
-        .filter_map(|r| gflops(r).map(|g| (g, &r.label)))
-        .max_by(|a, b| a.0.total_cmp(&b.0));
+    // GFLOP/s of a row from one statistic of its times, and the sgemm peak for that statistic.
+    let gflops = |r: &Row, stat: Stat| r.times.map(|t| r.flops / stat(t) * 1e-9);
+    let peak = |stat: Stat| {
+        peaks
+            .iter()
+            .filter_map(|r| gflops(r, stat).map(|g| (g, r.label.as_str())))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+    };
+    let (median, best): (Stat, Stat) = (|t| t.median, |t| t.best);
+    let (peak_median, peak_best) = (peak(median), peak(best));
     println!(
-        "\nSummary (one thread, kernel \"{}\", medians of {SAMPLES} samples; \
-         FLOPs = 2·MACs of the matrix products, ×4 for f+grad)",
+        "\nSummary (one thread, kernel \"{}\"; {SAMPLES} samples each: median and fastest; \
+         FLOPs = 2·MACs of the matrix products, ×4 for f+grad; % of the sgemm peak of the same \
+         statistic)",
         dynaslice_core::kernel_name()
     );
     println!(
-        "{:<42} {:>14} {:>10} {:>8}",
-        "benchmark", "points/s", "GFLOP/s", "% peak"
+        "{:<34} {:>11} {:>8} {:>7} {:>11} {:>8} {:>7}",
+        "benchmark", "points/s", "GFLOP/s", "% peak", "best pts/s", "GFLOP/s", "% peak"
     );
     for r in peaks.iter().chain(&rows) {
-        let (Some(s), Some(g)) = (r.seconds, gflops(r)) else {
-            continue;
-        };
-        let pct = peak.map_or(String::from("-"), |(p, _)| format!("{:.0}%", 100.0 * g / p));
-        let points = if r.label.starts_with("sgemm") {
-            String::from("-")
-        } else {
-            format!("{:.4e}", r.points as f64 / s)
-        };
-        println!("{:<42} {points:>14} {g:>10.1} {pct:>8}", r.label);
+        let Some(t) = r.times else { continue };
+        let mut line = format!("{:<34}", r.label);
+        for (stat, p) in [(median, peak_median), (best, peak_best)] {
+            let g = r.flops / stat(t) * 1e-9;
+            let points = if r.label.starts_with("sgemm") {
+                String::from("-")
+            } else {
+                format!("{:.3e}", r.points as f64 / stat(t))
+            };
+            let pct = p.map_or(String::from("-"), |(p, _)| format!("{:.0}%", 100.0 * g / p));
+            line += &format!(" {points:>11} {g:>8.1} {pct:>7}");
+        }
+        println!("{line}");
     }
-    if let Some((p, label)) = peak {
-        println!("sgemm peak: {p:.1} GFLOP/s ({label})");
+    for (name, p) in [("median", peak_median), ("best", peak_best)] {
+        if let Some((p, label)) = p {
+            println!("sgemm peak ({name}): {p:.1} GFLOP/s ({label})");
+        }
     }
     c.final_summary();
 }
