@@ -8,3 +8,4 @@ pub mod train;
 pub mod cli;
 pub mod model_file;
 pub mod plot;
+pub mod frame_range;

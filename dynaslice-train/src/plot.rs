@@ -85,6 +85,13 @@ pub fn line_chart(
                 .x_desc(x_label)
                 .y_desc(y_label)
                 .label_style(("sans-serif", 16))
+                .y_label_formatter(&|v| {
+                    if log_y {
+                        format!("{v:.0e}")
+                    } else {
+                        format!("{v:.3}")
+                    }
+                })
                 .axis_desc_style(("sans-serif", 18))
                 .draw()
                 .map_err(|e| err(&e))?;

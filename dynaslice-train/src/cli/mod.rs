@@ -2,7 +2,9 @@
 
 mod bench;
 mod info;
+mod input;
 mod query;
+mod train;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -21,6 +23,8 @@ enum Command {
     Bench(bench::Args),
     /// Print a model's dimensions, domain, time range, classes and metadata.
     Info(info::Args),
+    /// Fit a 4D multi-class neural SDF to cross-sections and write the model.
+    Train(train::Args),
     /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
     Query(query::Args),
 }
@@ -32,6 +36,7 @@ pub fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Info(args) => info::run(args),
         Command::Query(args) => query::run(args),
+        Command::Train(args) => train::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

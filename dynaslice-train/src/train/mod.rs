@@ -3,6 +3,7 @@
 //! - [`network`]: parameters in the core's layout, SIREN initialisation, ω_t clamp (Eq. 4).
 //! - [`passes`]: forward with spatial tangents and the matching backward pass.
 //! - [`loss`]: the loss terms and their gradients with respect to f and ∇ₓf.
+//! - [`data_sampler`]: samples from cross-section data in the normalised frame.
 //! - [`objective`]: the loss and gradient of one batch over worker threads.
 //! - [`adam`]: the optimiser; [`checkpoint`]: resumable state.
 //! - [`bench`]: step throughput against the machine's sgemm peak.
@@ -11,6 +12,7 @@
 pub mod adam;
 pub mod bench;
 pub mod checkpoint;
+pub mod data_sampler;
 pub mod loss;
 mod matmul;
 pub mod network;

@@ -16,10 +16,10 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// A source of training samples in the network's normalised frame.
-pub trait Sampler: Sync {
+pub trait Sampler {
     /// Fills `batch` with the samples of step `step`: a pure function of (seed, step), so a
     /// resumed run sees the same samples.
-    fn sample(&self, seed: u64, step: u64, batch: &mut Batch);
+    fn sample(&mut self, seed: u64, step: u64, batch: &mut Batch);
     /// Upper bound on the samples in any one set of a batch (sizes the buffers).
     fn max_set_len(&self) -> usize;
     /// A digest of the data, stored in checkpoints.
@@ -109,7 +109,7 @@ fn fingerprint(o: &TrainOptions, num_classes: usize, data: u64) -> u64 {
 pub fn train(
     o: &TrainOptions,
     num_classes: usize,
-    sampler: &dyn Sampler,
+    sampler: &mut dyn Sampler,
     mut on_step: impl FnMut(&Progress) -> ControlFlow<()>,
 ) -> Result<Outcome> {
     let layout =
@@ -200,7 +200,7 @@ mod tests {
     }
 
     impl Sampler for Sphere {
-        fn sample(&self, seed: u64, step: u64, b: &mut Batch) {
+        fn sample(&mut self, seed: u64, step: u64, b: &mut Batch) {
             let mut rng = Pcg64Mcg::seed_from_u64(seed ^ step.wrapping_mul(0x9E37_79B9_7F4A_7C15));
             let n = 256;
             b.contour_x.clear();
@@ -274,7 +274,7 @@ mod tests {
 
     #[test]
     fn learns_a_pulsating_sphere() {
-        let out = train(&options(1500, None), 1, &Sphere, |_| {
+        let out = train(&options(1500, None), 1, &mut Sphere, |_| {
             ControlFlow::Continue(())
         })
         .unwrap();
@@ -305,14 +305,11 @@ mod tests {
     fn resumed_run_ends_bit_identical() {
         let dir = tempfile::tempdir().unwrap();
         let ckpt = dir.path().join("run.ckpt");
-        let straight = train(
-            &options(30, None),
-            1,
-            &Sphere,
-            |_| ControlFlow::Continue(()),
-        )
+        let straight = train(&options(30, None), 1, &mut Sphere, |_| {
+            ControlFlow::Continue(())
+        })
         .unwrap();
-        let stopped = train(&options(30, Some(ckpt.clone())), 1, &Sphere, |p| {
+        let stopped = train(&options(30, Some(ckpt.clone())), 1, &mut Sphere, |p| {
             if p.step == 13 {
                 ControlFlow::Break(())
             } else {
@@ -321,7 +318,7 @@ mod tests {
         })
         .unwrap();
         assert_eq!(stopped.steps_done, 13);
-        let resumed = train(&options(30, Some(ckpt)), 1, &Sphere, |_| {
+        let resumed = train(&options(30, Some(ckpt)), 1, &mut Sphere, |_| {
             ControlFlow::Continue(())
         })
         .unwrap();

@@ -1,0 +1,65 @@
+//! Reading a training input of any supported kind, chosen by its file name.
+
+use crate::data::{csl, native, LabelNames, Sequence};
+use crate::frame_range::FrameRange;
+use anyhow::{bail, Context, Result};
+use std::path::{Path, PathBuf};
+
+/// Options shared by every command that reads cross-sections.
+#[derive(clap::Args, Debug, Clone)]
+pub struct InputArgs {
+    /// Cross-sections: native JSON (.json), a .csl file, or a .csl sequence manifest (.cslseq).
+    pub input: PathBuf,
+    /// Frames to use, A:B:STEP (Python slice; e.g. 0:37:4 = every 4th of 37).
+    #[arg(long, default_value = "0:", value_name = "A:B:STEP")]
+    pub frames: FrameRange,
+    /// Label-name table ("<label> <name>" per line) for inputs that carry label numbers only.
+    #[arg(long, value_name = "FILE")]
+    pub label_names: Option<PathBuf>,
+}
+
+/// Reads `args.input` and keeps the selected frames.
+pub fn read(args: &InputArgs) -> Result<Sequence> {
+    let names = match &args.label_names {
+        Some(p) => LabelNames::read(p)?,
+        None => LabelNames::default(),
+    };
+    let path = args.input.as_path();
+    let seq = match extension(path).as_str() {
+        "json" => native::read(path)?,
+        "csl" => csl::read(path, &names)?,
+        "cslseq" => csl::read_sequence(path, &names)?,
+        other => bail!(
+            "{}: unsupported input type {other:?} (expected .json, .csl or .cslseq)",
+            path.display()
+        ),
+    };
+    select_frames(seq, args.frames)
+        .with_context(|| format!("{}: --frames {}", path.display(), args.frames))
+}
+
+fn extension(path: &Path) -> String {
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
+}
+
+/// The sequence restricted to `range`'s frames (an error if none is left).
+pub fn select_frames(seq: Sequence, range: FrameRange) -> Result<Sequence> {
+    if range == FrameRange::ALL {
+        return Ok(seq);
+    }
+    let count = seq.frames().len();
+    let keep: Vec<usize> = range.indices(count).collect();
+    if keep.is_empty() {
+        bail!("selects no frame of the {count} in the input");
+    }
+    let (classes, frames) = seq.into_parts();
+    let frames = frames
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| keep.contains(i))
+        .map(|(_, f)| f)
+        .collect();
+    Ok(Sequence::new(classes, frames)?)
+}

@@ -1,0 +1,193 @@
+//! Training samples from a cross-section [`Sequence`]: the data-side samplers (world units)
+//! mapped into the network's normalised frame, with the per-class weights of Eq. 10.
+
+use super::loss::{ContourSample, PlaneSample};
+use super::objective::Batch;
+use super::trainer::Sampler;
+use crate::data::{Aabb, Sequence};
+use crate::sampling::{
+    sample_space_time, ContourBatch, PlaneBatch, PlaneSampling, PlaneTarget, SampleRng,
+    SamplingIndex, SpaceTimeBatch,
+};
+use dynaslice_core::Domain;
+
+/// Relative margin around the data's bounding box inside the normalised cube, so surfaces near
+/// the outermost planes are not clipped by the domain.
+const DOMAIN_MARGIN: f64 = 0.1;
+
+/// The isotropic world ↔ normalised map of a sequence: its region of interest's bounding box
+/// (plus a margin) inside [−1, 1]³ with one scale for all axes, so distances and gradient
+/// norms mean the same in both frames (σ = s), and its time range onto [0, 1].
+pub fn domain_for(seq: &Sequence) -> Domain {
+    let b = seq.roi_bounding_box();
+    let center: [f64; 3] = std::array::from_fn(|i| 0.5 * (b.min[i] + b.max[i]));
+    let half = (0..3)
+        .map(|i| 0.5 * (b.max[i] - b.min[i]))
+        .fold(0.0f64, f64::max);
+    let scale = (half * (1.0 + DOMAIN_MARGIN)).max(1e-6);
+    let (t0, t1) = seq.time_range();
+    let span = if t1 > t0 { t1 - t0 } else { 1.0 };
+    Domain {
+        center: center.map(|c| c as f32),
+        scale: [scale as f32; 3],
+        time_origin: t0 as f32,
+        time_span: span as f32,
+        output_scale: scale as f32,
+    }
+}
+
+/// Δt of Eq. 4: the median spacing of the annotated timesteps in normalised time (1 for a
+/// single timestep, where the network's time input is then switched off by ω_t^max = 0).
+pub fn annotated_spacing(seq: &Sequence, domain: &Domain) -> Option<f64> {
+    let times: Vec<f64> = seq.frames().iter().map(|f| f.time).collect();
+    let mut gaps: Vec<f64> = times
+        .windows(2)
+        .map(|w| (w[1] - w[0]) / domain.time_span as f64)
+        .filter(|g| *g > 0.0)
+        .collect();
+    if gaps.is_empty() {
+        return None;
+    }
+    gaps.sort_by(f64::total_cmp);
+    Some(gaps[gaps.len() / 2])
+}
+
+/// How many samples each step draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SampleCounts {
+    /// Contour points per class.
+    pub contour_per_class: usize,
+    /// Plane samples per class.
+    pub plane_per_class: usize,
+    /// Space-time samples (shared by all channels).
+    pub space: usize,
+}
+
+/// A [`Sampler`] over a sequence.
+pub struct DataSampler {
+    index: SamplingIndex,
+    domain: Domain,
+    counts: SampleCounts,
+    plane: PlaneSampling,
+    cube: Aabb,
+    times: (f64, f64),
+    num_classes: usize,
+    fingerprint: u64,
+    contour: ContourBatch,
+    planes: PlaneBatch,
+    space: SpaceTimeBatch,
+    per_class: Vec<usize>,
+}
+
+impl DataSampler {
+    /// Indexes `seq` for sampling in `domain`.
+    pub fn new(seq: &Sequence, domain: Domain, counts: SampleCounts) -> DataSampler {
+        let (lo, hi) = domain.bounds();
+        let s = domain.scale[0] as f64;
+        let (t0, t1) = domain.time_range();
+        // The fingerprint only has to tell runs apart: the sequence's debug text hashed.
+        let text = format!("{seq:?}");
+        let fingerprint = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+        });
+        DataSampler {
+            index: SamplingIndex::new(seq),
+            domain,
+            counts,
+            plane: PlaneSampling::for_scene(2.0 * 3f64.sqrt() * s / (1.0 + DOMAIN_MARGIN)),
+            cube: Aabb {
+                min: lo.map(f64::from),
+                max: hi.map(f64::from),
+            },
+            times: (t0 as f64, t1 as f64),
+            num_classes: seq.classes().len(),
+            fingerprint,
+            contour: ContourBatch::default(),
+            planes: PlaneBatch::default(),
+            space: SpaceTimeBatch::default(),
+            per_class: vec![0; seq.classes().len()],
+        }
+    }
+
+    fn normalise(&self, x: [f32; 3], t: f32) -> [f32; 4] {
+        self.domain.normalise(x, t)
+    }
+
+    /// 1/N_k for each class's share of `classes` (Eq. 10: a mean per class, summed).
+    fn class_weights(per_class: &mut [usize], classes: &[u32]) {
+        per_class.fill(0);
+        for &c in classes {
+            per_class[c as usize] += 1;
+        }
+    }
+}
+
+impl Sampler for DataSampler {
+    fn sample(&mut self, seed: u64, step: u64, b: &mut Batch) {
+        let mut rng = SampleRng::new(seed, step);
+        let k = self.num_classes;
+        self.index.sample_contours(
+            &mut rng,
+            self.counts.contour_per_class * k,
+            &mut self.contour,
+        );
+        self.index.sample_planes(
+            &mut rng,
+            self.counts.plane_per_class * k,
+            &self.plane,
+            &mut self.planes,
+        );
+        sample_space_time(
+            &mut rng,
+            self.counts.space,
+            &self.cube,
+            self.times,
+            &mut self.space,
+        );
+
+        let sigma = self.domain.output_scale;
+        b.contour_x.clear();
+        b.contour_normal.clear();
+        b.contour.clear();
+        Self::class_weights(&mut self.per_class, &self.contour.class);
+        for i in 0..self.contour.len() {
+            let c = self.contour.class[i];
+            b.contour_x
+                .push(self.normalise(self.contour.xyz[i], self.contour.t[i]));
+            b.contour_normal.push(self.contour.normal[i]);
+            b.contour.push(ContourSample {
+                class: c,
+                weight: 1.0 / self.per_class[c as usize] as f32,
+            });
+        }
+        b.plane_x.clear();
+        b.plane.clear();
+        Self::class_weights(&mut self.per_class, &self.planes.class);
+        for i in 0..self.planes.len() {
+            let c = self.planes.class[i];
+            b.plane_x
+                .push(self.normalise(self.planes.xyz[i], self.planes.t[i]));
+            b.plane.push(PlaneSample {
+                class: c,
+                target: self.planes.target[i] / sigma,
+                absent: self.planes.kind[i] == PlaneTarget::LowerBound,
+                weight: 1.0 / self.per_class[c as usize] as f32,
+            });
+        }
+        b.space_x.clear();
+        for (x, &t) in self.space.xyz.iter().zip(&self.space.t) {
+            b.space_x.push(self.normalise(*x, t));
+        }
+    }
+
+    fn max_set_len(&self) -> usize {
+        let k = self.num_classes;
+        (self.counts.contour_per_class * k)
+            .max(self.counts.plane_per_class * k)
+            .max(self.counts.space)
+    }
+
+    fn fingerprint(&self) -> u64 {
+        self.fingerprint
+    }
+}

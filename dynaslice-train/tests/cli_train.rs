@@ -1,0 +1,166 @@
+//! `dynaslice train` end to end on a small .csl sequence the test writes: outputs, and a real
+//! run killed mid-way then resumed, which must end with the same model, bit for bit, as an
+//! uninterrupted run.
+
+use dynaslice_core::Model;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// A sphere of radius r(t) = 10 + 2t mm cut by 5 z-planes, at times 0, 1, 2 (s), as a .csl
+/// manifest with one file per timestep (counter-clockwise circles, label 1).
+fn write_sequence(dir: &Path) -> PathBuf {
+    let mut manifest = String::new();
+    for (i, t) in [0.0f64, 1.0, 2.0].iter().enumerate() {
+        let r = 10.0 + 2.0 * t;
+        let zs = [-6.0f64, -3.0, 0.0, 3.0, 6.0];
+        let mut csl = format!("CSLC\n{} 1\n\n", zs.len());
+        for (p, z) in zs.iter().enumerate() {
+            let rc = (r * r - z * z).sqrt();
+            let n = 48;
+            csl += &format!("{} {n} 1 0 0 1 {}\n\n", p + 1, -z);
+            for j in 0..n {
+                let a = std::f64::consts::TAU * j as f64 / n as f64;
+                csl += &format!("{} {} {z}\n", rc * a.cos(), rc * a.sin());
+            }
+            csl += &format!(
+                "\n{n} 1 {}\n\n",
+                (0..n).map(|j| j.to_string()).collect::<Vec<_>>().join(" ")
+            );
+        }
+        let name = format!("ball_{i}.csl");
+        std::fs::write(dir.join(&name), csl).unwrap();
+        manifest += &format!("{t} {name}\n");
+    }
+    let path = dir.join("ball.cslseq");
+    std::fs::write(&path, manifest).unwrap();
+    path
+}
+
+fn train_command(input: &Path, out: &Path, extra: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_dynaslice"));
+    c.args([
+        "train",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ])
+    .args([
+        "--widths",
+        "32,32",
+        "--contour-samples",
+        "256",
+        "--plane-samples",
+        "256",
+    ])
+    .args(["--space-samples", "256", "--threads", "2", "--seed", "7"])
+    .args(extra);
+    c
+}
+
+#[test]
+fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write_sequence(dir.path());
+
+    // Uninterrupted reference run.
+    let straight = dir.path().join("straight.dsm");
+    let out = train_command(&input, &straight, &["--steps", "1500"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(&straight).unwrap();
+    let model = Model::from_bytes(&bytes).unwrap();
+    assert_eq!(model.domain().time_range(), (0.0, 2.0));
+    assert!(
+        model.omega_t_max() > 0.0,
+        "three frames: temporal control is on"
+    );
+    let mut f = [0.0];
+    model.eval([0.0, 0.0, 0.0], 1.0, &mut f).unwrap();
+    assert!(f[0] < 0.0, "the centre is inside: {}", f[0]);
+    model.eval([11.0, 9.0, 0.0], 1.0, &mut f).unwrap();
+    assert!(f[0] > 0.0, "far away is outside: {}", f[0]);
+    let csv = std::fs::read_to_string(dir.path().join("straight.dsm.loss.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1501, "header + one line per step");
+    let png = std::fs::read(dir.path().join("straight.dsm.loss.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+
+    // The same run, killed once its checkpoint holds some progress, then resumed.
+    let resumed = dir.path().join("resumed.dsm");
+    let ckpt = dir.path().join("resumed.dsm.ckpt");
+    let mut child = train_command(
+        &input,
+        &resumed,
+        &["--steps", "1500", "--checkpoint-minutes", "0"],
+    )
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
+    let start = Instant::now();
+    while std::fs::metadata(&ckpt).map(|m| m.len()).unwrap_or(0) == 0 {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no checkpoint appeared"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before it could be killed"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!resumed.exists(), "killed before the end: no model yet");
+    // Checkpoint layout: magic, fingerprint, then the step (see train/checkpoint.rs).
+    let saved = std::fs::read(&ckpt).unwrap();
+    let step = u64::from_le_bytes(saved[16..24].try_into().unwrap());
+    assert!(step > 0 && step < 1500, "killed mid-way, at step {step}");
+    let out = train_command(&input, &resumed, &["--steps", "1500", "--resume"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        std::fs::read(&resumed).unwrap(),
+        bytes,
+        "resumed model differs from the uninterrupted one"
+    );
+}
+
+#[test]
+fn bad_inputs_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("nope.csl");
+    let out = train_command(&missing, &dir.path().join("m.dsm"), &["--steps", "1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("nope.csl"), "{err}");
+    let odd = dir.path().join("data.xyz");
+    std::fs::write(&odd, "1 2 3").unwrap();
+    let out = train_command(&odd, &dir.path().join("m.dsm"), &["--steps", "1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("unsupported input type"),
+        "{err}"
+    );
+    let input = write_sequence(dir.path());
+    let out = train_command(&input, &dir.path().join("m.dsm"), &["--frames", "5:9"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("selects no frame"),
+        "{err}"
+    );
+}
