@@ -15,6 +15,8 @@ pub mod error;
 pub mod labels;
 pub mod model;
 pub mod native;
+pub mod nifti;
+pub mod reslice;
 
 pub use error::{DataError, ErrorKind, Location, Result};
 pub use labels::LabelNames;
