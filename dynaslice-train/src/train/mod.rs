@@ -18,6 +18,7 @@ mod matmul;
 pub mod network;
 pub mod objective;
 pub mod passes;
+mod simd;
 pub mod trainer;
 
 #[cfg(test)]

@@ -29,6 +29,7 @@
 
 use super::matmul::{matmul, Mat, Op};
 use super::network::Network;
+use super::simd::multiversion;
 use dynaslice_core::sine::sin_cos;
 
 /// Inputs of the first layer: normalised x, y, z, t.
@@ -285,32 +286,37 @@ fn check_tangents(tangents: Tangents, groups: usize, n: usize) {
     }
 }
 
-/// S_p = sin Z_p, cos = cos Z_p, S_d = cos Z_p ⊙ Ż_d.
-fn activate(z: &[f32], s: &mut [f32], cos: &mut [f32], n: usize, t: usize, w: usize) {
-    let (zp, zt) = z.split_at(n * w);
-    let (sp, st) = s.split_at_mut(n * w);
-    for ((sv, cv), zv) in sp.iter_mut().zip(cos.iter_mut()).zip(zp) {
-        (*sv, *cv) = sin_cos(*zv);
-    }
-    for d in 0..t {
-        let range = d * n * w..(d + 1) * n * w;
-        for ((sv, zv), cv) in st[range.clone()].iter_mut().zip(&zt[range]).zip(cos.iter()) {
-            *sv = cv * zv;
+multiversion! {
+    /// S_p = sin Z_p, cos = cos Z_p, S_d = cos Z_p ⊙ Ż_d.
+    fn activate(z: &[f32], s: &mut [f32], cos: &mut [f32], n: usize, t: usize, w: usize) {
+        let (zp, zt) = z.split_at(n * w);
+        let (sp, st) = s.split_at_mut(n * w);
+        for ((sv, cv), zv) in sp.iter_mut().zip(cos.iter_mut()).zip(zp) {
+            (*sv, *cv) = sin_cos(*zv);
+        }
+        for d in 0..t {
+            let range = d * n * w..(d + 1) * n * w;
+            for ((sv, zv), cv) in st[range.clone()].iter_mut().zip(&zt[range]).zip(cos.iter()) {
+                *sv = cv * zv;
+            }
         }
     }
 }
 
-/// In place: g (Ḡ_H' stacked) becomes Ḡ_Z:
-/// Ḡ_Zp = cos ⊙ Ḡ_Hp − sin ⊙ Σ_d Ż_d ⊙ Ḡ_Ḣd;  Ḡ_Żd = cos ⊙ Ḡ_Ḣd.
-fn sine_backward(g: &mut [f32], z: &[f32], s: &[f32], cos: &[f32], n: usize, t: usize, w: usize) {
-    let (gp, gt) = g.split_at_mut(n * w);
-    for (i, gpv) in gp.iter_mut().enumerate() {
-        let mut cross = 0.0;
+multiversion! {
+    /// In place: g (Ḡ_H' stacked) becomes Ḡ_Z:
+    /// Ḡ_Zp = cos ⊙ Ḡ_Hp − sin ⊙ Σ_d Ż_d ⊙ Ḡ_Ḣd;  Ḡ_Żd = cos ⊙ Ḡ_Ḣd.
+    /// One pass per tangent group so every loop is a contiguous, vectorisable sweep.
+    fn sine_backward(g: &mut [f32], z: &[f32], s: &[f32], cos: &[f32], n: usize, t: usize, w: usize) {
+        let (gp, gt) = g.split_at_mut(n * w);
+        gp.iter_mut().zip(&cos[..n * w]).for_each(|(g, c)| *g *= c);
         for d in 0..t {
-            let j = d * n * w + i;
-            cross += z[n * w + j] * gt[j];
-            gt[j] *= cos[i];
+            let range = d * n * w..(d + 1) * n * w;
+            let zd = &z[n * w + range.start..n * w + range.end];
+            for ((((gpv, gtv), zv), sv), cv) in gp.iter_mut().zip(&mut gt[range]).zip(zd).zip(s).zip(cos) {
+                *gpv -= sv * zv * *gtv;
+                *gtv *= cv;
+            }
         }
-        *gpv = cos[i] * *gpv - s[i] * cross;
     }
 }
