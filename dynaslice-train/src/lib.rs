@@ -4,6 +4,7 @@
 pub mod data;
 pub mod geometry;
 pub mod sampling;
+pub mod synth;
 pub mod train;
 pub mod cli;
 pub mod model_file;

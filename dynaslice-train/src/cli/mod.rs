@@ -4,6 +4,7 @@ mod bench;
 mod info;
 mod input;
 mod query;
+mod synth;
 mod train;
 
 use clap::{Parser, Subcommand};
@@ -27,6 +28,8 @@ enum Command {
     Train(train::Args),
     /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
     Query(query::Args),
+    /// Write the synthetic 4D benchmark: training slices (native JSON) and ground-truth NIfTI.
+    Synth(synth::Args),
 }
 
 /// Parses the process arguments and runs the chosen subcommand.
@@ -37,6 +40,7 @@ pub fn main() -> ExitCode {
         Command::Info(args) => info::run(args),
         Command::Query(args) => query::run(args),
         Command::Train(args) => train::run(args),
+        Command::Synth(args) => synth::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
