@@ -24,9 +24,9 @@ impl FrameRange {
     };
 
     /// The selected indices among `count` frames.
-    pub fn indices(&self, count: usize) -> impl Iterator<Item = usize> {
+    pub fn indices(&self, count: usize) -> Vec<usize> {
         let end = self.end.unwrap_or(count).min(count);
-        (self.start..end).step_by(self.step)
+        (self.start..end).step_by(self.step).collect()
     }
 }
 
@@ -86,41 +86,21 @@ mod tests {
     #[test]
     fn parses_and_selects() {
         let r: FrameRange = "0:37:4".parse().unwrap();
+        assert_eq!(r.indices(37), vec![0, 4, 8, 12, 16, 20, 24, 28, 32, 36]);
         assert_eq!(
-            r.indices(37).collect::<Vec<_>>(),
-            vec![0, 4, 8, 12, 16, 20, 24, 28, 32, 36]
-        );
-        assert_eq!(
-            "2:".parse::<FrameRange>()
-                .unwrap()
-                .indices(5)
-                .collect::<Vec<_>>(),
+            "2:".parse::<FrameRange>().unwrap().indices(5),
             vec![2, 3, 4]
         );
         assert_eq!(
-            "::2"
-                .parse::<FrameRange>()
-                .unwrap()
-                .indices(5)
-                .collect::<Vec<_>>(),
+            "::2".parse::<FrameRange>().unwrap().indices(5),
             vec![0, 2, 4]
         );
+        assert_eq!("3".parse::<FrameRange>().unwrap().indices(5), vec![3]);
         assert_eq!(
-            "3".parse::<FrameRange>()
-                .unwrap()
-                .indices(5)
-                .collect::<Vec<_>>(),
-            vec![3]
-        );
-        assert_eq!(
-            "0:100:10"
-                .parse::<FrameRange>()
-                .unwrap()
-                .indices(25)
-                .count(),
+            "0:100:10".parse::<FrameRange>().unwrap().indices(25).len(),
             3
         );
-        for bad in ["", "a:3", "0:3:0", "5:2", "1:2:3:4"] {
+        for bad in ["", "a", "-1", "a:3", "0:3:0", "1:2:0", "5:2", "1:2:3:4"] {
             assert!(bad.parse::<FrameRange>().is_err(), "{bad}");
         }
     }

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use dynaslice_train::data::nifti::{read, read_volume, write_volume, LabelVolume};
-use dynaslice_train::data::reslice::{reslice, FrameRange, ResliceOptions};
+use dynaslice_train::data::reslice::{reslice, ResliceOptions};
 use dynaslice_train::data::{ErrorKind, LabelNames};
 use dynaslice_train::geometry::polygon::signed_area;
 use nifti::NiftiHeader;
@@ -179,18 +179,6 @@ fn frames_and_labels_are_selectable() {
     )
     .unwrap_err();
     assert!(matches!(e.kind, ErrorKind::Option(_)), "{e}");
-}
-
-#[test]
-fn frame_ranges_parse() {
-    let r = |s: &str| s.parse::<FrameRange>().unwrap().indices(37);
-    assert_eq!(r("0:37:4").len(), 10);
-    assert_eq!(r("5"), [5]);
-    assert_eq!(r("35:"), [35, 36]);
-    assert_eq!(r("::18"), [0, 18, 36]);
-    for bad in ["a", "1:2:0", "1:2:3:4", "-1"] {
-        assert!(bad.parse::<FrameRange>().is_err(), "{bad}");
-    }
 }
 
 fn write_with(

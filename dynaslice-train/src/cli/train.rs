@@ -3,7 +3,7 @@
 use super::input::{self, InputArgs};
 use crate::model_file::write_atomically;
 use crate::plot::{line_chart, Series};
-use crate::train::data_sampler::{annotated_spacing, domain_for, DataSampler, SampleCounts};
+use crate::train::data_sampler::{domain_for, temporal_bound, DataSampler, SampleCounts};
 use crate::train::loss::LossWeights;
 use crate::train::trainer::{self, Outcome, Progress, TrainOptions};
 use anyhow::{Context, Result};
@@ -24,7 +24,7 @@ pub struct Args {
     #[arg(short, long, value_name = "MODEL.dsm")]
     output: PathBuf,
     /// Optimisation steps (the learning-rate schedule spans them).
-    #[arg(long, default_value_t = 3000)]
+    #[arg(long, default_value_t = TrainOptions::default().steps)]
     steps: u64,
     /// Stop after this many minutes even if steps remain.
     #[arg(long)]
@@ -33,7 +33,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads (results are reproducible for a given count).
-    #[arg(long, default_value_t = default_threads())]
+    #[arg(long, default_value_t = TrainOptions::default().threads)]
     threads: usize,
     /// Continue from the checkpoint beside the output, if there is one.
     #[arg(long)]
@@ -48,42 +48,38 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', default_value = "256,256,256,256")]
     widths: Vec<u32>,
     /// ω₀: the first layer's spatial frequency scale over the normalised cube.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = TrainOptions::default().omega_0)]
     omega0: f32,
     /// c in ω_t^max = c·π/Δt (Eq. 4), Δt the annotated frames' spacing in normalised time.
     #[arg(long, default_value_t = 1.0)]
     temporal_factor: f32,
     /// Initial learning rate (cosine decay to a tenth).
-    #[arg(long, default_value_t = 3e-4)]
+    #[arg(long, default_value_t = TrainOptions::default().lr)]
     lr: f32,
     /// λ_n, orientation weight (Eq. 6).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = TrainOptions::default().loss.orientation)]
     lambda_orientation: f32,
     /// λ_d, in-plane SDF weight (Eq. 7).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = TrainOptions::default().loss.plane)]
     lambda_plane: f32,
     /// λ_r, space-time regulariser weight (Eq. 8).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = TrainOptions::default().loss.regulariser)]
     lambda_regulariser: f32,
     /// α of exp(−α|f|) (Eq. 8), in normalised units.
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = TrainOptions::default().loss.alpha)]
     alpha: f32,
     /// Contour points per class per step.
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = SampleCounts::default().contour_per_class)]
     contour_samples: usize,
     /// Plane samples per class per step.
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = SampleCounts::default().plane_per_class)]
     plane_samples: usize,
     /// Space-time samples per step.
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = SampleCounts::default().space)]
     space_samples: usize,
     /// Minutes between checkpoints.
     #[arg(long, default_value_t = 2.0)]
     checkpoint_minutes: f64,
-}
-
-fn default_threads() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
 fn beside(model: &Path, suffix: &str) -> PathBuf {
@@ -95,13 +91,7 @@ fn beside(model: &Path, suffix: &str) -> PathBuf {
 pub fn run(a: Args) -> Result<()> {
     let seq = input::read(&a.input)?;
     let domain = domain_for(&seq);
-    let spacing = annotated_spacing(&seq, &domain);
-    let omega_t_max = match (a.no_temporal_control, spacing) {
-        (true, _) => f32::INFINITY,
-        (false, Some(dt)) => a.temporal_factor * (std::f64::consts::PI / dt) as f32,
-        // One timestep: nothing to interpolate in time, so the time input is switched off.
-        (false, None) => 0.0,
-    };
+    let omega_t_max = temporal_bound(&seq, &domain, a.temporal_factor, !a.no_temporal_control);
     let options = TrainOptions {
         widths: a.widths.clone(),
         steps: a.steps,
@@ -147,35 +137,18 @@ pub fn run(a: Args) -> Result<()> {
     let mut sampler = DataSampler::new(&seq, domain, counts);
     let outcome = run_with_progress(&options, k, &mut sampler)?;
 
-    let mut metadata = String::new();
+    let mut metadata = format!("trainer = dynaslice {}\n", env!("CARGO_PKG_VERSION"));
     writeln!(
         metadata,
-        "trainer = dynaslice {}",
-        env!("CARGO_PKG_VERSION")
+        "input = {}\nframes = {}",
+        a.input.input.display(),
+        a.input.frames
     )?;
-    writeln!(metadata, "input = {}", a.input.input.display())?;
-    writeln!(metadata, "frames = {}", a.input.frames)?;
+    metadata += &options.describe();
     writeln!(
         metadata,
-        "steps = {} of {}",
-        outcome.steps_done, options.steps
-    )?;
-    writeln!(
-        metadata,
-        "seed = {}\nthreads = {}",
-        options.seed, options.threads
-    )?;
-    writeln!(
-        metadata,
-        "omega_0 = {}\nomega_t_max = {}\ntemporal_factor = {}",
-        options.omega_0, omega_t_max, a.temporal_factor
-    )?;
-    writeln!(metadata, "lr = {} -> {}", options.lr, options.lr_final)?;
-    let l = &options.loss;
-    writeln!(
-        metadata,
-        "lambda_orientation = {}\nlambda_plane = {}\nlambda_regulariser = {}\nalpha = {}",
-        l.orientation, l.plane, l.regulariser, l.alpha
+        "temporal_factor = {}\nsteps_done = {}",
+        a.temporal_factor, outcome.steps_done
     )?;
     writeln!(
         metadata,

@@ -9,78 +9,16 @@
 //! exceed ½: resliced classes never overlap. See `docs/data-format.md`.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::str::FromStr;
 
 use rayon::prelude::*;
 
-use super::error::{DataError, ErrorKind, Result};
+use super::error::{ErrorKind, Result};
 use super::labels::LabelNames;
 use super::model::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 use super::nifti::{det3, LabelVolume};
 use crate::geometry::marching_squares::contours;
 
-/// Frames to use: `start:stop:step`, `stop` exclusive and optional (`0:37:4`, `5`, `2:`, `::3`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct FrameRange {
-    /// First frame.
-    pub start: usize,
-    /// One past the last frame; `None` means to the end.
-    pub stop: Option<usize>,
-    /// Step (≥ 1).
-    pub step: usize,
-}
-
-impl Default for FrameRange {
-    fn default() -> Self {
-        FrameRange {
-            start: 0,
-            stop: None,
-            step: 1,
-        }
-    }
-}
-
-impl FromStr for FrameRange {
-    type Err = DataError;
-
-    fn from_str(s: &str) -> Result<Self> {
-        let bad = || {
-            DataError::new(ErrorKind::Option(format!(
-                "frames `{s}`: expected start:stop:step"
-            )))
-        };
-        let parts: Vec<&str> = s.split(':').collect();
-        if parts.len() > 3 {
-            return Err(bad());
-        }
-        let num = |p: &str| -> Result<Option<usize>> {
-            if p.trim().is_empty() {
-                Ok(None)
-            } else {
-                p.trim().parse().map(Some).map_err(|_| bad())
-            }
-        };
-        let start = num(parts[0])?.unwrap_or(0);
-        let (stop, step) = match parts.len() {
-            1 => (Some(start + 1), 1),
-            2 => (num(parts[1])?, 1),
-            _ => (num(parts[1])?, num(parts[2])?.unwrap_or(1)),
-        };
-        if step == 0 {
-            return Err(bad());
-        }
-        Ok(FrameRange { start, stop, step })
-    }
-}
-
-impl FrameRange {
-    /// The selected frame indices of a volume with `frames` frames.
-    pub fn indices(&self, frames: usize) -> Vec<usize> {
-        (self.start..self.stop.unwrap_or(frames).min(frames))
-            .step_by(self.step)
-            .collect()
-    }
-}
+pub use crate::frame_range::FrameRange;
 
 /// Reslicing options; [`Default`] is the paper's protocol for real data.
 #[derive(Debug, Clone, PartialEq)]
@@ -103,7 +41,7 @@ impl Default for ResliceOptions {
         ResliceOptions {
             rotated: 20,
             axial_step: 2,
-            frames: FrameRange::default(),
+            frames: FrameRange::ALL,
             labels: None,
             pixel: None,
         }

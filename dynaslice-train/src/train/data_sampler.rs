@@ -52,6 +52,17 @@ pub fn annotated_spacing(seq: &Sequence, domain: &Domain) -> Option<f64> {
     Some(gaps[gaps.len() / 2])
 }
 
+/// ω_t^max of Eq. 4 for `seq` in `domain`: c·π/Δt with `factor` c; `f32::INFINITY` when
+/// temporal control is off (the "4D SIREN" ablation); 0 for a single timestep, where there is
+/// nothing to interpolate in time and the time input is switched off.
+pub fn temporal_bound(seq: &Sequence, domain: &Domain, factor: f32, control: bool) -> f32 {
+    match (control, annotated_spacing(seq, domain)) {
+        (false, _) => f32::INFINITY,
+        (true, Some(dt)) => factor * (std::f64::consts::PI / dt) as f32,
+        (true, None) => 0.0,
+    }
+}
+
 /// How many samples each step draws.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SampleCounts {
@@ -61,6 +72,17 @@ pub struct SampleCounts {
     pub plane_per_class: usize,
     /// Space-time samples (shared by all channels).
     pub space: usize,
+}
+
+impl Default for SampleCounts {
+    /// The paper-scale batch: 4096 contour and 4096 plane samples per class, 4096 space-time.
+    fn default() -> Self {
+        SampleCounts {
+            contour_per_class: 4096,
+            plane_per_class: 4096,
+            space: 4096,
+        }
+    }
 }
 
 /// A [`Sampler`] over a sequence.

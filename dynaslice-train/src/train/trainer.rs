@@ -57,6 +57,47 @@ pub struct TrainOptions {
     pub resume: bool,
 }
 
+impl Default for TrainOptions {
+    /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
+    /// 3000 steps, ω₀ = 10, lr 3e-4 → 3e-5, λ_n = λ_d = 0.1, λ_r = 0.05, α = 50, all threads,
+    /// no checkpoint; `omega_t_max` must be set from the data ([`super::data_sampler::temporal_bound`]).
+    fn default() -> Self {
+        TrainOptions {
+            widths: vec![256; 4],
+            steps: 3000,
+            time_limit: None,
+            omega_0: 10.0,
+            seed: 0,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            lr: 3e-4,
+            lr_final: 3e-5,
+            loss: LossWeights {
+                orientation: 0.1,
+                plane: 0.1,
+                regulariser: 0.05,
+                alpha: 50.0,
+            },
+            omega_t_max: f32::INFINITY,
+            checkpoint: None,
+            checkpoint_every: Duration::from_secs(120),
+            resume: false,
+        }
+    }
+}
+
+impl TrainOptions {
+    /// The options as `key = value` lines, for the model's metadata.
+    pub fn describe(&self) -> String {
+        let l = &self.loss;
+        format!(
+            "widths = {:?}\nsteps = {}\nseed = {}\nthreads = {}\nomega_0 = {}\nomega_t_max = {}\n\
+             lr = {} -> {}\nlambda_orientation = {}\nlambda_plane = {}\nlambda_regulariser = {}\nalpha = {}\n",
+            self.widths, self.steps, self.seed, self.threads, self.omega_0, self.omega_t_max, self.lr,
+            self.lr_final, l.orientation, l.plane, l.regulariser, l.alpha
+        )
+    }
+}
+
 /// What the loop reports after each step.
 #[derive(Clone, Copy, Debug)]
 pub struct Progress {
