@@ -1,1 +1,939 @@
-//! C ABI for DynaSlice (see docs/c-api.md).
+//! C ABI for DynaSlice: load a trained 4D multi-class SDF (`.dsm`) and query it at any world
+//! point and time from C, C++, Python (ctypes) or anything else that calls C.
+//!
+//! The header `include/dynaslice.h` is generated from this file by cbindgen
+//! (`dynaslice-ffi/cbindgen.toml`); docs/c-api.md is the user guide. Conventions shared by every
+//! entry point:
+//!
+//! - Functions returning `int` return `DS_OK` (0) or a negative `DS_E_*` code, and record a
+//!   human-readable detail for `ds_last_error_message` on the calling thread.
+//! - Every pointer is checked for NULL (and float/integer pointers for alignment) before use, and
+//!   nothing is read or written outside the buffers the arguments describe.
+//! - Every entry point runs inside [`std::panic::catch_unwind`], so a Rust panic (a bug) becomes
+//!   `DS_E_INTERNAL` instead of unwinding into C, which would be undefined behaviour.
+//! - A [`DsModel`] is immutable once loaded, so any number of threads may query one model at
+//!   once. Batch calls run on the calling thread only: hosts (VTK's SMP tools, ParaView, Slicer)
+//!   own their thread pools and split work across them themselves.
+
+#![warn(missing_docs)]
+
+use core::ffi::{c_char, c_int, CStr};
+use dynaslice_core::{format, Error, Layout, Model, Scratch};
+use std::cell::RefCell;
+use std::ffi::CString;
+use std::io::Read;
+use std::mem::{align_of, size_of};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// Success.
+pub const DS_OK: c_int = 0;
+/// A pointer argument that must not be NULL was NULL.
+pub const DS_E_NULL_POINTER: c_int = -1;
+/// The model file could not be opened or read (missing, permissions, I/O error).
+pub const DS_E_IO: c_int = -2;
+/// The model is shorter than its header says (this includes an empty file).
+pub const DS_E_TRUNCATED: c_int = -3;
+/// The bytes are not a valid DynaSlice model (bad magic, inconsistent layout, bad values).
+pub const DS_E_BAD_FORMAT: c_int = -4;
+/// The model's CRC-32 does not match its contents: the file is corrupt.
+pub const DS_E_CHECKSUM: c_int = -5;
+/// A valid model this library cannot read (newer format version, big-endian host).
+pub const DS_E_UNSUPPORTED: c_int = -6;
+/// An output buffer is shorter than the answer (e.g. `sdf_len < K`).
+pub const DS_E_BUFFER_TOO_SMALL: c_int = -7;
+/// A class number outside `1..=K`.
+pub const DS_E_NO_SUCH_CLASS: c_int = -8;
+/// Any other invalid argument: a misaligned pointer, overlapping input and output buffers, or a
+/// count whose buffer size overflows `size_t`.
+pub const DS_E_INVALID_ARGUMENT: c_int = -9;
+/// A bug in the library (a caught Rust panic); the message says where.
+pub const DS_E_INTERNAL: c_int = -10;
+
+/// The label `ds_label` and `ds_label_batch` report for a NaN or infinite query, where no
+/// class can be chosen.
+pub const DS_LABEL_UNDEFINED: u32 = u32::MAX;
+/// The largest number of classes K a model can have: an `sdf` array of this length fits any
+/// model.
+pub const DS_MAX_CLASSES: u32 = 64;
+/// The longest class name in bytes, without the terminating NUL.
+pub const DS_MAX_NAME_LEN: u32 = 56;
+
+// The header needs literal values (cbindgen cannot see into the core); these keep them honest.
+const _: () = {
+    assert!(DS_LABEL_UNDEFINED == dynaslice_core::UNDEFINED_LABEL);
+    assert!(DS_MAX_CLASSES as usize == format::MAX_CLASSES);
+    assert!(DS_MAX_NAME_LEN as usize == format::MAX_NAME_LEN);
+};
+
+/// A loaded model, opaque: create it with `ds_model_open` or `ds_model_from_bytes`, free it with
+/// `ds_model_free`. Immutable after loading: any number of threads may query one model at once.
+//
+// Inside: an 8-byte aligned copy of the model bytes and a validated `Model` view into it, so
+// queries never re-validate.
+pub struct DsModel {
+    /// Borrows `*storage`. The `'static` is a private lie made sound by the ownership below:
+    /// the borrow is never handed out with a lifetime longer than `&self`, see [`Self::model`].
+    model: Model<'static>,
+    /// The model bytes, from `Box::into_raw`, freed in `Drop`. Held as a raw pointer rather than
+    /// a `Box` so that moving a `DsModel` never asserts unique ownership of memory that `model`
+    /// still borrows (a `Box` move would, under Rust's aliasing rules).
+    storage: *mut [u64],
+}
+
+// SAFETY: `storage` is only written when dropped (with `&mut self`), and `Model` is `Sync` and
+// `Send`: the raw pointer is all that stops the compiler from deriving these.
+unsafe impl Send for DsModel {}
+// SAFETY: as above; every query takes `&self` and only reads.
+unsafe impl Sync for DsModel {}
+
+impl DsModel {
+    /// Copies `bytes` (any alignment) into owned aligned storage and validates it.
+    fn from_bytes(bytes: &[u8]) -> Result<DsModel, Failure> {
+        let mut words = vec![0u64; bytes.len().div_ceil(size_of::<u64>())].into_boxed_slice();
+        // SAFETY: `words` holds at least `bytes.len()` initialised bytes, and every byte pattern
+        // is a valid u64; the two buffers are distinct allocations.
+        unsafe {
+            core::ptr::copy_nonoverlapping(
+                bytes.as_ptr(),
+                words.as_mut_ptr().cast::<u8>(),
+                bytes.len(),
+            )
+        };
+        let storage = Box::into_raw(words);
+        // SAFETY: `storage` is a live allocation of at least `bytes.len()` bytes that nothing
+        // else references; it is freed only by `Drop`, after the last use of `model`.
+        let view: &'static [u8] =
+            unsafe { core::slice::from_raw_parts(storage.cast::<u8>(), bytes.len()) };
+        match Model::from_bytes(view) {
+            Ok(model) => Ok(DsModel { model, storage }),
+            Err(e) => {
+                // SAFETY: from `Box::into_raw` above; `view` is not used after this.
+                drop(unsafe { Box::from_raw(storage) });
+                Err(Failure::model(e))
+            }
+        }
+    }
+
+    /// The model, borrowed no longer than `self` (which owns its bytes).
+    fn model(&self) -> &Model<'_> {
+        &self.model
+    }
+}
+
+impl Drop for DsModel {
+    fn drop(&mut self) {
+        // SAFETY: `storage` came from `Box::into_raw` in `from_bytes` and is freed only here;
+        // `model` (a plain view without `Drop`) is never used again.
+        drop(unsafe { Box::from_raw(self.storage) });
+    }
+}
+
+/// Why a call failed: the code returned to C and the detail kept for
+/// `ds_last_error_message`.
+#[derive(Debug)]
+struct Failure {
+    code: c_int,
+    message: String,
+}
+
+impl Failure {
+    fn new(code: c_int, message: impl Into<String>) -> Failure {
+        Failure {
+            code,
+            message: message.into(),
+        }
+    }
+
+    fn null(what: &str) -> Failure {
+        Failure::new(DS_E_NULL_POINTER, format!("`{what}` is NULL"))
+    }
+
+    /// Maps a core error to its code; the core's message becomes the detail.
+    fn model(e: Error) -> Failure {
+        let code = match e {
+            Error::Truncated { .. } => DS_E_TRUNCATED,
+            Error::CrcMismatch { .. } => DS_E_CHECKSUM,
+            Error::UnsupportedVersion(_) | Error::BigEndianHost => DS_E_UNSUPPORTED,
+            Error::BufferLength { .. } => DS_E_BUFFER_TOO_SMALL,
+            Error::NoSuchClass(_) => DS_E_NO_SUCH_CLASS,
+            // The core's error enum is non-exhaustive: anything else, present or future, is a
+            // malformed model.
+            _ => DS_E_BAD_FORMAT,
+        };
+        Failure::new(code, e.to_string())
+    }
+}
+
+thread_local! {
+    /// Detail of the last failure on this thread, returned by `ds_last_error_message`.
+    static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
+    /// Batch working memory (≈ 330 KiB), allocated on a thread's first batch call and freed when
+    /// the thread exits, so concurrent batch calls from many threads never share it.
+    static SCRATCH: RefCell<Option<Box<Scratch>>> = const { RefCell::new(None) };
+}
+
+fn set_last_error(message: &str) {
+    // Interior NULs cannot come from our messages, but a path could hold one only if the caller
+    // passed a non-C string; strip rather than fail.
+    let text = CString::new(message.replace('\0', "")).unwrap_or_default();
+    // During thread teardown the slot may be gone; the code is still returned.
+    let _ = LAST_ERROR.try_with(|slot| *slot.borrow_mut() = text);
+}
+
+/// Runs an entry point's body: catches panics and records the failure detail.
+fn guard(function: &str, body: impl FnOnce() -> Result<c_int, Failure>) -> c_int {
+    match catch_unwind(AssertUnwindSafe(body)) {
+        Ok(Ok(value)) => value,
+        Ok(Err(failure)) => {
+            set_last_error(&format!("{function}: {}", failure.message));
+            failure.code
+        }
+        Err(payload) => {
+            let what = payload
+                .downcast_ref::<&str>()
+                .copied()
+                .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+                .unwrap_or("unknown panic");
+            set_last_error(&format!("{function}: internal error (panic: {what})"));
+            DS_E_INTERNAL
+        }
+    }
+}
+
+/// The model behind a C pointer.
+///
+/// # Safety
+/// `model` must be NULL or a live pointer from `ds_model_open` / `ds_model_from_bytes`.
+unsafe fn model_ref<'a>(model: *const DsModel) -> Result<&'a DsModel, Failure> {
+    // SAFETY: per this function's contract.
+    unsafe { model.as_ref() }.ok_or_else(|| Failure::null("model"))
+}
+
+/// Checks a C array pointer for NULL and alignment and that `len` elements fit in `isize`.
+fn check_array<T>(ptr: *const T, len: usize, what: &str) -> Result<(), Failure> {
+    if ptr.is_null() {
+        return Err(Failure::null(what));
+    }
+    if !(ptr as usize).is_multiple_of(align_of::<T>()) {
+        return Err(Failure::new(
+            DS_E_INVALID_ARGUMENT,
+            format!("`{what}` is not aligned to {} bytes", align_of::<T>()),
+        ));
+    }
+    if len
+        .checked_mul(size_of::<T>())
+        .is_none_or(|b| b > isize::MAX as usize)
+    {
+        return Err(Failure::new(
+            DS_E_INVALID_ARGUMENT,
+            format!("`{what}` holds {len} elements, more than any buffer can"),
+        ));
+    }
+    Ok(())
+}
+
+/// A shared slice over a C array.
+///
+/// # Safety
+/// `ptr` must point to `len` readable, initialised `T`s that nothing writes during the call.
+unsafe fn input<'a, T>(ptr: *const T, len: usize, what: &str) -> Result<&'a [T], Failure> {
+    check_array(ptr, len, what)?;
+    // SAFETY: non-NULL, aligned, size checked above; readability per this function's contract.
+    Ok(unsafe { core::slice::from_raw_parts(ptr, len) })
+}
+
+/// A mutable slice over a C array.
+///
+/// # Safety
+/// `ptr` must point to `len` writable `T`s that the call may overwrite, and no other slice made
+/// during the call may overlap it (checked by [`disjoint`] where the caller could alias).
+unsafe fn output<'a, T>(ptr: *mut T, len: usize, what: &str) -> Result<&'a mut [T], Failure> {
+    check_array(ptr, len, what)?;
+    // SAFETY: as for `input`; exclusivity per this function's contract.
+    Ok(unsafe { core::slice::from_raw_parts_mut(ptr, len) })
+}
+
+/// Fails when any two of the byte ranges (start pointer, element count, element size) overlap:
+/// Rust must never hold a mutable slice aliasing another slice, so an output may not overlap any
+/// other buffer of the call. Counts are already known not to overflow (see [`check_array`]).
+fn disjoint(ranges: &[(&str, usize, usize)]) -> Result<(), Failure> {
+    for (i, &(a, a_start, a_len)) in ranges.iter().enumerate() {
+        for &(b, b_start, b_len) in &ranges[i + 1..] {
+            if a_start < b_start + b_len && b_start < a_start + a_len {
+                return Err(Failure::new(
+                    DS_E_INVALID_ARGUMENT,
+                    format!("`{a}` and `{b}` overlap"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Byte range of a C array, for [`disjoint`].
+fn span<T>(name: &str, ptr: *const T, len: usize) -> (&str, usize, usize) {
+    (name, ptr as usize, len * size_of::<T>())
+}
+
+/// Reads a 3-float point (copied, so it may alias any output).
+///
+/// # Safety
+/// `xyz` must be NULL or point to 3 readable floats.
+unsafe fn point(xyz: *const f32) -> Result<[f32; 3], Failure> {
+    // SAFETY: per this function's contract.
+    let p = unsafe { input(xyz, 3, "xyz") }?;
+    Ok([p[0], p[1], p[2]])
+}
+
+/// The largest file a valid model can be: every dimension at its limit. Reading stops past it, so
+/// opening a huge file that is not a model fails fast instead of reading all of it.
+fn max_model_size() -> u64 {
+    let widths = [format::MAX_WIDTH as u32; format::MAX_SINE_LAYERS];
+    let params = Layout::new(&widths, format::MAX_CLASSES as u32)
+        .map(|l| l.param_count())
+        .unwrap_or(0) as u64;
+    let before_weights = (format::HEADER_SIZE
+        + format::CLASS_RECORD_SIZE * format::MAX_CLASSES
+        + format::MAX_METADATA
+        + format::WEIGHT_ALIGN) as u64;
+    before_weights + 4 * params + 4
+}
+
+/// Writes `text` snprintf-style: at most `len - 1` bytes, cut at a UTF-8 character boundary, then
+/// a NUL. Returns the full length so a caller can retry with a bigger buffer.
+///
+/// # Safety
+/// `buf` must be NULL (only with `len == 0`) or point to `len` writable bytes.
+unsafe fn write_c_string(text: &str, buf: *mut c_char, len: usize) -> Result<c_int, Failure> {
+    let full = c_int::try_from(text.len())
+        .map_err(|_| Failure::new(DS_E_INVALID_ARGUMENT, "string longer than INT_MAX"))?;
+    if len == 0 {
+        // A pure size query: `buf` is not touched, and may be NULL.
+        return Ok(full);
+    }
+    // SAFETY: per this function's contract.
+    let out = unsafe { output(buf.cast::<u8>(), len, "buf") }?;
+    let mut n = text.len().min(len - 1);
+    while !text.is_char_boundary(n) {
+        n -= 1;
+    }
+    out[..n].copy_from_slice(&text.as_bytes()[..n]);
+    out[n] = 0;
+    Ok(full)
+}
+
+/// Stores a new model in `*out`, or fails leaving `*out` NULL.
+///
+/// # Safety
+/// `out` must be NULL or point to a writable `DsModel *`.
+unsafe fn load(
+    function: &str,
+    out: *mut *mut DsModel,
+    bytes: impl FnOnce() -> Result<DsModel, Failure>,
+) -> c_int {
+    guard(function, || {
+        check_array(out, 1, "out")?;
+        // SAFETY: checked non-NULL and aligned; writable per this function's contract.
+        unsafe { out.write(core::ptr::null_mut()) };
+        let model = Box::new(bytes()?);
+        // SAFETY: as above.
+        unsafe { out.write(Box::into_raw(model)) };
+        Ok(DS_OK)
+    })
+}
+
+/// Loads the model file at `path` into a new model stored in `*out`.
+///
+/// `path` is a NUL-terminated path (bytes as given on POSIX, UTF-8 elsewhere). Returns 0, or a
+/// negative `DS_E_*` code with `*out` set to NULL (when `out` itself is not NULL). Free the model
+/// with `ds_model_free`.
+///
+/// # Safety
+/// `path` must be NULL or a NUL-terminated string; `out` NULL or a writable `DsModel *`.
+#[no_mangle]
+pub unsafe extern "C" fn ds_model_open(path: *const c_char, out: *mut *mut DsModel) -> c_int {
+    let read = || {
+        if path.is_null() {
+            return Err(Failure::null("path"));
+        }
+        // SAFETY: non-NULL, NUL-terminated per this function's contract.
+        let path = unsafe { CStr::from_ptr(path) };
+        #[cfg(unix)]
+        let path = <std::ffi::OsStr as std::os::unix::ffi::OsStrExt>::from_bytes(path.to_bytes());
+        #[cfg(not(unix))]
+        let path = path
+            .to_str()
+            .map_err(|_| Failure::new(DS_E_INVALID_ARGUMENT, "`path` is not UTF-8"))?;
+        let io = |e: std::io::Error| {
+            Failure::new(
+                DS_E_IO,
+                format!("cannot read {}: {e}", path.to_string_lossy()),
+            )
+        };
+        let limit = max_model_size();
+        let mut bytes = Vec::new();
+        std::fs::File::open(path)
+            .map_err(io)?
+            .take(limit + 1)
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        if bytes.len() as u64 > limit {
+            return Err(Failure::new(
+                DS_E_BAD_FORMAT,
+                format!(
+                    "{} is larger than any model ({limit} bytes)",
+                    path.to_string_lossy()
+                ),
+            ));
+        }
+        DsModel::from_bytes(&bytes)
+    };
+    // SAFETY: `out` is forwarded under this function's contract.
+    unsafe { load("ds_model_open", out, read) }
+}
+
+/// Loads a model from `len` bytes at `bytes` (any alignment: they are copied, and the caller may
+/// free them as soon as this returns) into a new model stored in `*out`.
+///
+/// Returns 0, or a negative `DS_E_*` code with `*out` set to NULL (when `out` is not NULL).
+///
+/// # Safety
+/// `bytes` must be NULL or point to `len` readable bytes; `out` NULL or a writable `DsModel *`.
+#[no_mangle]
+pub unsafe extern "C" fn ds_model_from_bytes(
+    bytes: *const u8,
+    len: usize,
+    out: *mut *mut DsModel,
+) -> c_int {
+    let copy = || {
+        // SAFETY: per this function's contract.
+        let bytes = unsafe { input(bytes, len, "bytes") }?;
+        if bytes.len() as u64 > max_model_size() {
+            return Err(Failure::new(
+                DS_E_BAD_FORMAT,
+                format!("{len} bytes is larger than any model"),
+            ));
+        }
+        DsModel::from_bytes(bytes)
+    };
+    // SAFETY: `out` is forwarded under this function's contract.
+    unsafe { load("ds_model_from_bytes", out, copy) }
+}
+
+/// Frees a model. NULL is a no-op. The model must not be in use by another thread, and must not
+/// be used or freed again afterwards.
+///
+/// # Safety
+/// `model` must be NULL or a live pointer from `ds_model_open` / `ds_model_from_bytes`.
+#[no_mangle]
+pub unsafe extern "C" fn ds_model_free(model: *mut DsModel) {
+    guard("ds_model_free", || {
+        if !model.is_null() {
+            // SAFETY: from `Box::into_raw` in `load`, freed once per this function's contract.
+            drop(unsafe { Box::from_raw(model) });
+        }
+        Ok(DS_OK)
+    });
+}
+
+/// K, the number of classes (output channels) of the model; 0 for NULL.
+///
+/// # Safety
+/// `model` must be NULL or a live model.
+#[no_mangle]
+pub unsafe extern "C" fn ds_num_classes(model: *const DsModel) -> u32 {
+    let k = guard("ds_num_classes", || {
+        // SAFETY: per this function's contract.
+        let model = unsafe { model_ref(model) }?;
+        Ok(model.model().num_classes() as c_int)
+    });
+    // K is at most DS_MAX_CLASSES; failures (NULL, a caught panic) read as 0 classes.
+    u32::try_from(k).unwrap_or(0)
+}
+
+/// Copies the name of class `k` (`1..=K`) into `buf` as UTF-8, NUL-terminated, snprintf-style:
+/// at most `len - 1` bytes (cut at a character boundary) are written. Returns the full name
+/// length in bytes (without the NUL), so a return value `>= len` means the name was cut; or a
+/// negative `DS_E_*` code. With `len == 0`, `buf` may be NULL and only the length is returned.
+///
+/// # Safety
+/// `model` must be NULL or a live model; `buf` NULL or `len` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn ds_class_name(
+    model: *const DsModel,
+    k: u32,
+    buf: *mut c_char,
+    len: usize,
+) -> c_int {
+    guard("ds_class_name", || {
+        // SAFETY: per this function's contract.
+        let model = unsafe { model_ref(model) }?;
+        let class = model.model().class(k).map_err(Failure::model)?;
+        // SAFETY: per this function's contract.
+        unsafe { write_c_string(class.name, buf, len) }
+    })
+}
+
+/// Stores in `*label` the label value class `k` (`1..=K`) had in the source segmentation.
+///
+/// # Safety
+/// `model` must be NULL or a live model; `label` NULL or a writable `int32_t`.
+#[no_mangle]
+pub unsafe extern "C" fn ds_class_label(model: *const DsModel, k: u32, label: *mut i32) -> c_int {
+    guard("ds_class_label", || {
+        // SAFETY: per this function's contract.
+        let model = unsafe { model_ref(model) }?;
+        let class = model.model().class(k).map_err(Failure::model)?;
+        // SAFETY: per this function's contract.
+        unsafe { output(label, 1, "label") }?[0] = class.label;
+        Ok(DS_OK)
+    })
+}
+
+/// Copies the model's free-form UTF-8 metadata (the trainer records its options here) into `buf`,
+/// with the same conventions and return value as `ds_class_name`.
+///
+/// # Safety
+/// `model` must be NULL or a live model; `buf` NULL or `len` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn ds_metadata(model: *const DsModel, buf: *mut c_char, len: usize) -> c_int {
+    guard("ds_metadata", || {
+        // SAFETY: per this function's contract.
+        let model = unsafe { model_ref(model) }?;
+        // SAFETY: per this function's contract.
+        unsafe { write_c_string(model.model().metadata(), buf, len) }
+    })
+}
+
+/// Stores the time range the model was trained on, in world time units (usually seconds).
+///
+/// # Safety
+/// `model` must be NULL or a live model; `t_min`, `t_max` NULL or writable floats.
+#[no_mangle]
+pub unsafe extern "C" fn ds_time_range(
+    model: *const DsModel,
+    t_min: *mut f32,
+    t_max: *mut f32,
+) -> c_int {
+    guard("ds_time_range", || {
+        // SAFETY: per this function's contract.
+        let model = unsafe { model_ref(model) }?;
+        disjoint(&[span("t_min", t_min, 1), span("t_max", t_max, 1)])?;
+        let (lo, hi) = model.model().domain().time_range();
+        // SAFETY: per this function's contract; disjoint checked above.
+        let (a, b) = unsafe { (output(t_min, 1, "t_min")?, output(t_max, 1, "t_max")?) };
+        a[0] = lo;
+        b[0] = hi;
+        Ok(DS_OK)
+    })
+}
+
+/// Stores the world bounding box the model was trained on, in world units (usually mm): 3 floats
+/// each. Queries outside it are answered too (the network extrapolates).
+///
+/// # Safety
+/// `model` must be NULL or a live model; `min_xyz`, `max_xyz` NULL or 3 writable floats each.
+#[no_mangle]
+pub unsafe extern "C" fn ds_bounds(
+    model: *const DsModel,
+    min_xyz: *mut f32,
+    max_xyz: *mut f32,
+) -> c_int {
+    guard("ds_bounds", || {
+        // SAFETY: per this function's contract.
+        let model = unsafe { model_ref(model) }?;
+        disjoint(&[span("min_xyz", min_xyz, 3), span("max_xyz", max_xyz, 3)])?;
+        let (lo, hi) = model.model().domain().bounds();
+        // SAFETY: per this function's contract; disjoint checked above.
+        let (a, b) = unsafe {
+            (
+                output(min_xyz, 3, "min_xyz")?,
+                output(max_xyz, 3, "max_xyz")?,
+            )
+        };
+        a.copy_from_slice(&lo);
+        b.copy_from_slice(&hi);
+        Ok(DS_OK)
+    })
+}
+
+/// Fails unless an output of `sdf_len` entries per point holds the model's K.
+fn check_sdf_len(model: &Model, sdf_len: usize) -> Result<usize, Failure> {
+    let k = model.num_classes();
+    if sdf_len < k {
+        return Err(Failure::new(
+            DS_E_BUFFER_TOO_SMALL,
+            format!("sdf_len is {sdf_len}, the model has {k} classes"),
+        ));
+    }
+    Ok(k)
+}
+
+/// Evaluates the K signed distances f(x, t) at world point `xyz` (3 floats) and world time `t`
+/// into `sdf[0..K]` (world units; negative inside class k). `sdf` holds `sdf_len >= K` floats;
+/// entries past K are left untouched. A NaN or infinite query gives NaN distances (and returns 0).
+///
+/// # Safety
+/// `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `sdf` NULL or
+/// `sdf_len` writable floats.
+#[no_mangle]
+pub unsafe extern "C" fn ds_eval(
+    model: *const DsModel,
+    xyz: *const f32,
+    t: f32,
+    sdf: *mut f32,
+    sdf_len: usize,
+) -> c_int {
+    guard("ds_eval", || {
+        // SAFETY: per this function's contract.
+        let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
+        let k = check_sdf_len(model, sdf_len)?;
+        // SAFETY: per this function's contract; the only slice of this call (`x` is a copy).
+        let f = unsafe { output(sdf, sdf_len, "sdf") }?;
+        model.eval(x, t, &mut f[..k]).map_err(Failure::model)?;
+        Ok(DS_OK)
+    })
+}
+
+/// Like `ds_eval`, and also stores the exact spatial gradients (world units): `grad` holds
+/// `3 * sdf_len` floats, and row k-1 (`grad[3(k-1)..3k]`) receives ∇ₓf^k for k in 1..=K.
+///
+/// # Safety
+/// As `ds_eval`, and `grad` NULL or `3 * sdf_len` writable floats not overlapping `sdf`.
+#[no_mangle]
+pub unsafe extern "C" fn ds_eval_grad(
+    model: *const DsModel,
+    xyz: *const f32,
+    t: f32,
+    sdf: *mut f32,
+    grad: *mut f32,
+    sdf_len: usize,
+) -> c_int {
+    guard("ds_eval_grad", || {
+        // SAFETY: per this function's contract.
+        let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
+        let k = check_sdf_len(model, sdf_len)?;
+        let grad_len = sdf_len
+            .checked_mul(3)
+            .ok_or_else(|| Failure::new(DS_E_INVALID_ARGUMENT, "sdf_len * 3 overflows"))?;
+        check_array(sdf, sdf_len, "sdf")?;
+        check_array(grad, grad_len, "grad")?;
+        disjoint(&[span("sdf", sdf, sdf_len), span("grad", grad, grad_len)])?;
+        // SAFETY: per this function's contract; disjoint checked above.
+        let (f, g) = unsafe {
+            (
+                output(sdf, sdf_len, "sdf")?,
+                output(grad, grad_len, "grad")?,
+            )
+        };
+        let mut rows = [[0.0f32; 3]; format::MAX_CLASSES];
+        model
+            .eval_grad(x, t, &mut f[..k], &mut rows[..k])
+            .map_err(Failure::model)?;
+        g[..3 * k].copy_from_slice(rows[..k].as_flattened());
+        Ok(DS_OK)
+    })
+}
+
+/// Like `ds_eval_grad`, and also stores ∂f^k/∂t (world units per world time unit) in
+/// `dfdt[k-1]`; `dfdt` holds `sdf_len` floats. With ∇ₓf this gives the surface's normal velocity
+/// −(∂f/∂t)/‖∇ₓf‖.
+///
+/// # Safety
+/// As `ds_eval_grad`, and `dfdt` NULL or `sdf_len` writable floats overlapping neither output.
+#[no_mangle]
+pub unsafe extern "C" fn ds_eval_jacobian(
+    model: *const DsModel,
+    xyz: *const f32,
+    t: f32,
+    sdf: *mut f32,
+    grad: *mut f32,
+    dfdt: *mut f32,
+    sdf_len: usize,
+) -> c_int {
+    guard("ds_eval_jacobian", || {
+        // SAFETY: per this function's contract.
+        let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
+        let k = check_sdf_len(model, sdf_len)?;
+        let grad_len = sdf_len
+            .checked_mul(3)
+            .ok_or_else(|| Failure::new(DS_E_INVALID_ARGUMENT, "sdf_len * 3 overflows"))?;
+        check_array(sdf, sdf_len, "sdf")?;
+        check_array(grad, grad_len, "grad")?;
+        check_array(dfdt, sdf_len, "dfdt")?;
+        disjoint(&[
+            span("sdf", sdf, sdf_len),
+            span("grad", grad, grad_len),
+            span("dfdt", dfdt, sdf_len),
+        ])?;
+        // SAFETY: per this function's contract; disjoint checked above.
+        let (f, g, d) = unsafe {
+            (
+                output(sdf, sdf_len, "sdf")?,
+                output(grad, grad_len, "grad")?,
+                output(dfdt, sdf_len, "dfdt")?,
+            )
+        };
+        let mut rows = [[0.0f32; 3]; format::MAX_CLASSES];
+        model
+            .eval_jacobian(x, t, &mut f[..k], &mut rows[..k], &mut d[..k])
+            .map_err(Failure::model)?;
+        g[..3 * k].copy_from_slice(rows[..k].as_flattened());
+        Ok(DS_OK)
+    })
+}
+
+/// Stores the Eq. 11 label at (`xyz`, `t`) in `*label`: 0 for background, k when f^k is negative
+/// and the smallest, `DS_LABEL_UNDEFINED` for a NaN or infinite query (which still returns 0).
+///
+/// # Safety
+/// `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `label` NULL or a
+/// writable `uint32_t`.
+#[no_mangle]
+pub unsafe extern "C" fn ds_label(
+    model: *const DsModel,
+    xyz: *const f32,
+    t: f32,
+    label: *mut u32,
+) -> c_int {
+    guard("ds_label", || {
+        // SAFETY: per this function's contract.
+        let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
+        // SAFETY: per this function's contract (`x` is a copy).
+        unsafe { output(label, 1, "label") }?[0] = model.label(x, t);
+        Ok(DS_OK)
+    })
+}
+
+/// The inputs of a batch call, checked: n points of 3 floats and n times.
+///
+/// # Safety
+/// `xyz` must be NULL or `3n` readable floats; `t` NULL or `n` readable floats.
+unsafe fn batch_inputs<'a>(
+    n: usize,
+    xyz: *const f32,
+    t: *const f32,
+) -> Result<(&'a [[f32; 3]], &'a [f32]), Failure> {
+    // `[f32; 3]` has the size and alignment of 3 consecutive floats.
+    // SAFETY: per this function's contract.
+    let points = unsafe { input(xyz.cast::<[f32; 3]>(), n, "xyz") }?;
+    // SAFETY: per this function's contract.
+    let times = unsafe { input(t, n, "t") }?;
+    Ok((points, times))
+}
+
+/// Runs `body` with this thread's batch scratch (allocated on the thread's first batch call).
+fn with_scratch<R>(body: impl FnOnce(&mut Scratch) -> R) -> Result<R, Failure> {
+    // Taken out of the slot for the call, so the slot is never borrowed across `body`.
+    let taken = SCRATCH
+        .try_with(|slot| slot.borrow_mut().take())
+        .map_err(|_| Failure::new(DS_E_INTERNAL, "called during thread teardown"))?;
+    let mut scratch = taken.unwrap_or_else(Scratch::boxed);
+    let result = body(&mut scratch);
+    let _ = SCRATCH.try_with(|slot| *slot.borrow_mut() = Some(scratch));
+    Ok(result)
+}
+
+/// The K distances at each of `n` points: point i is `xyz[3i..3i+3]` at time `t[i]`, and its
+/// answers go to `sdf[iK..(i+1)K]` (row-major, `n * K` floats). NaN or infinite points give NaN
+/// rows. Uses the SIMD batch kernels (AVX-512/AVX2 when the CPU has them), so results may differ
+/// from `ds_eval` in the last bits. Runs on the calling thread only; call it from several
+/// threads on disjoint ranges to use more cores. `n == 0` is a no-op (pointers still checked).
+///
+/// # Safety
+/// `model` must be NULL or a live model; `xyz` NULL or `3n` readable floats; `t` NULL or `n`
+/// readable floats; `sdf` NULL or `n * K` writable floats overlapping neither input.
+#[no_mangle]
+pub unsafe extern "C" fn ds_eval_batch(
+    model: *const DsModel,
+    n: usize,
+    xyz: *const f32,
+    t: *const f32,
+    sdf: *mut f32,
+) -> c_int {
+    guard("ds_eval_batch", || {
+        // SAFETY: per this function's contract.
+        let (model, (points, times)) =
+            unsafe { (model_ref(model)?.model(), batch_inputs(n, xyz, t)?) };
+        let len = n
+            .checked_mul(model.num_classes())
+            .ok_or_else(|| Failure::new(DS_E_INVALID_ARGUMENT, "n * K overflows"))?;
+        check_array(sdf, len, "sdf")?;
+        disjoint(&[span("sdf", sdf, len), span("xyz", xyz, 3 * n)])?;
+        disjoint(&[span("sdf", sdf, len), span("t", t, n)])?;
+        // SAFETY: per this function's contract; disjoint from the inputs (checked above).
+        let f = unsafe { output(sdf, len, "sdf") }?;
+        with_scratch(|s| model.eval_batch(s, points, times, f))?.map_err(Failure::model)?;
+        Ok(DS_OK)
+    })
+}
+
+/// Like `ds_eval_batch`, and also stores ∇ₓf: `grad` holds `n * K * 3` floats, and
+/// `grad[3(iK + k-1)..3(iK + k)]` receives ∇ₓf^k at point i.
+///
+/// # Safety
+/// As `ds_eval_batch`, and `grad` NULL or `3nK` writable floats overlapping no other buffer.
+#[no_mangle]
+pub unsafe extern "C" fn ds_eval_grad_batch(
+    model: *const DsModel,
+    n: usize,
+    xyz: *const f32,
+    t: *const f32,
+    sdf: *mut f32,
+    grad: *mut f32,
+) -> c_int {
+    guard("ds_eval_grad_batch", || {
+        // SAFETY: per this function's contract.
+        let (model, (points, times)) =
+            unsafe { (model_ref(model)?.model(), batch_inputs(n, xyz, t)?) };
+        let len = n
+            .checked_mul(model.num_classes())
+            .ok_or_else(|| Failure::new(DS_E_INVALID_ARGUMENT, "n * K overflows"))?;
+        check_array(sdf, len, "sdf")?;
+        // `[f32; 3]` rows: the element-count check also bounds the float count 3·len.
+        check_array(grad.cast::<[f32; 3]>(), len, "grad")?;
+        let (s, g) = (span("sdf", sdf, len), span("grad", grad, 3 * len));
+        let (x, tt) = (span("xyz", xyz, 3 * n), span("t", t, n));
+        disjoint(&[s, g, x])?;
+        disjoint(&[s, g, tt])?;
+        // SAFETY: per this function's contract; disjoint from each other and the inputs.
+        let (f, g) = unsafe {
+            (
+                output(sdf, len, "sdf")?,
+                output(grad.cast::<[f32; 3]>(), len, "grad")?,
+            )
+        };
+        with_scratch(|s| model.eval_grad_batch(s, points, times, f, g))?.map_err(Failure::model)?;
+        Ok(DS_OK)
+    })
+}
+
+/// The Eq. 11 label of each of `n` points into `labels[0..n]` (see `ds_label`), with the batch
+/// kernels of `ds_eval_batch` (same threading and rounding notes).
+///
+/// # Safety
+/// `model` must be NULL or a live model; `xyz` NULL or `3n` readable floats; `t` NULL or `n`
+/// readable floats; `labels` NULL or `n` writable `uint32_t` overlapping neither input.
+#[no_mangle]
+pub unsafe extern "C" fn ds_label_batch(
+    model: *const DsModel,
+    n: usize,
+    xyz: *const f32,
+    t: *const f32,
+    labels: *mut u32,
+) -> c_int {
+    guard("ds_label_batch", || {
+        // SAFETY: per this function's contract.
+        let (model, (points, times)) =
+            unsafe { (model_ref(model)?.model(), batch_inputs(n, xyz, t)?) };
+        check_array(labels, n, "labels")?;
+        disjoint(&[span("labels", labels, n), span("xyz", xyz, 3 * n)])?;
+        disjoint(&[span("labels", labels, n), span("t", t, n)])?;
+        // SAFETY: per this function's contract; disjoint from the inputs (checked above).
+        let out = unsafe { output(labels, n, "labels") }?;
+        with_scratch(|s| model.label_batch(s, points, times, out))?.map_err(Failure::model)?;
+        Ok(DS_OK)
+    })
+}
+
+/// A static description of a return code; never NULL, also for unknown codes.
+#[no_mangle]
+pub extern "C" fn ds_error_string(code: c_int) -> *const c_char {
+    let text: &'static CStr = match code {
+        DS_OK => c"success",
+        DS_E_NULL_POINTER => c"a required pointer argument is NULL",
+        DS_E_IO => c"the model file could not be read",
+        DS_E_TRUNCATED => c"the model is truncated",
+        DS_E_BAD_FORMAT => c"not a valid DynaSlice model",
+        DS_E_CHECKSUM => c"the model is corrupt (CRC mismatch)",
+        DS_E_UNSUPPORTED => c"unsupported model version or platform",
+        DS_E_BUFFER_TOO_SMALL => c"an output buffer is too small",
+        DS_E_NO_SUCH_CLASS => c"no such class",
+        DS_E_INVALID_ARGUMENT => c"invalid argument",
+        DS_E_INTERNAL => c"internal error in the DynaSlice library",
+        _ => c"unknown error code",
+    };
+    text.as_ptr()
+}
+
+/// Detail of the most recent failure on the calling thread (e.g. "ds_model_open: CRC mismatch:
+/// …"), or "" if none yet. Successful calls do not clear it. Never NULL; the text stays valid
+/// until the next failing call on this thread.
+#[no_mangle]
+pub extern "C" fn ds_last_error_message() -> *const c_char {
+    LAST_ERROR
+        .try_with(|slot| slot.borrow().as_ptr())
+        .unwrap_or(c"".as_ptr())
+}
+
+/// The library version ("MAJOR.MINOR.PATCH"), static, never NULL.
+#[no_mangle]
+pub extern "C" fn ds_version() -> *const c_char {
+    const VERSION: &CStr =
+        match CStr::from_bytes_with_nul(concat!(env!("CARGO_PKG_VERSION"), "\0").as_bytes()) {
+            Ok(v) => v,
+            Err(_) => panic!("the package version contains a NUL"),
+        };
+    VERSION.as_ptr()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn last_error() -> String {
+        // SAFETY: never NULL, NUL-terminated.
+        unsafe { CStr::from_ptr(ds_last_error_message()) }
+            .to_string_lossy()
+            .into_owned()
+    }
+
+    /// The panic path cannot be reached from C without a bug, so it is tested directly.
+    #[test]
+    fn panics_become_internal_errors() {
+        let code = guard("ds_test", || panic!("boom {}", 42));
+        assert_eq!(code, DS_E_INTERNAL);
+        assert_eq!(last_error(), "ds_test: internal error (panic: boom 42)");
+        let code = guard("ds_test", || panic!("static"));
+        assert_eq!(code, DS_E_INTERNAL);
+        assert!(last_error().contains("panic: static"));
+    }
+
+    #[test]
+    fn overlapping_ranges_are_rejected() {
+        assert!(disjoint(&[("a", 100, 8), ("b", 108, 4)]).is_ok());
+        assert!(disjoint(&[("a", 100, 8), ("b", 104, 4), ("c", 0, 1)]).is_err());
+        assert!(disjoint(&[("a", 100, 0), ("b", 100, 4)]).is_ok());
+    }
+
+    #[test]
+    fn names_are_cut_at_character_boundaries() {
+        let mut buf = [0x7f as c_char; 4];
+        // "aü" is 3 bytes: a 3-byte buffer holds "a" and the NUL, not half of "ü".
+        let full = unsafe { write_c_string("aü", buf.as_mut_ptr(), 3) }.unwrap();
+        assert_eq!(full, 3);
+        assert_eq!(&buf[..3], &[b'a' as c_char, 0, 0x7f]);
+        assert_eq!(
+            unsafe { write_c_string("aü", core::ptr::null_mut(), 0) }.unwrap(),
+            3
+        );
+    }
+
+    #[test]
+    fn the_size_limit_admits_the_largest_model() {
+        // Every dimension at its limit must still load; one byte more is not a model.
+        let widths = [format::MAX_WIDTH as u32; format::MAX_SINE_LAYERS];
+        let mut w = format::ModelWriter::random_siren(&widths, format::MAX_CLASSES as u32, 1);
+        w.metadata = "x".repeat(format::MAX_METADATA);
+        let bytes = w.to_bytes();
+        assert!(bytes.len() as u64 <= max_model_size());
+        assert!(max_model_size() - (bytes.len() as u64) < format::WEIGHT_ALIGN as u64);
+        assert!(DsModel::from_bytes(&bytes).is_ok());
+    }
+
+    #[test]
+    fn version_matches_the_package() {
+        let v = unsafe { CStr::from_ptr(ds_version()) };
+        assert_eq!(v.to_str().unwrap(), env!("CARGO_PKG_VERSION"));
+    }
+}
