@@ -295,7 +295,8 @@ fn max_model_size() -> u64 {
     let before_weights = (format::HEADER_SIZE
         + format::CLASS_RECORD_SIZE * format::MAX_CLASSES
         + format::MAX_METADATA
-        + format::WEIGHT_ALIGN) as u64;
+        + format::WEIGHT_ALIGN
+        - 1) as u64; // at most WEIGHT_ALIGN - 1 bytes of padding before the weights
     before_weights + 4 * params + 4
 }
 
