@@ -89,9 +89,11 @@ fn main() {
         ["write", path] => std::fs::write(path, write_model()).expect("write the model"),
         ["volume", path, class, t, n] => {
             let bytes = std::fs::read(path).expect("read the model");
-            // Model::from_bytes needs 4-byte aligned weights: copy into u64 storage.
-            let mut words = vec![0u64; bytes.len().div_ceil(8)];
-            let aligned = &mut bytemuck::cast_slice_mut::<u64, u8>(&mut words)[..bytes.len()];
+            // Model::from_bytes needs 4-byte aligned weights: copy to an aligned offset.
+            let mut storage = vec![0u8; bytes.len() + 3];
+            let offset = storage.as_ptr().align_offset(4);
+            assert!(offset < 4, "no 4-byte aligned offset");
+            let aligned = &mut storage[offset..offset + bytes.len()];
             aligned.copy_from_slice(&bytes);
             let model = Model::from_bytes(aligned).expect("valid model");
             let class: usize = class.parse().expect("CLASS is 1..=K");
