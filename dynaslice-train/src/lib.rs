@@ -5,6 +5,7 @@ pub mod cli;
 pub mod data;
 pub mod frame_range;
 pub mod geometry;
+pub mod mesh;
 pub mod metrics;
 pub mod model_file;
 pub mod plot;

@@ -1,0 +1,122 @@
+//! Binary little-endian PLY through `ply-rs-bw`: `vertex` with `x y z nx ny nz normal_velocity`
+//! (float; the attributes only when the mesh has them) and `face` with `vertex_indices`
+//! (uchar count, uint indices).
+
+use super::super::Mesh;
+use anyhow::Result;
+use ply_rs_bw::ply::{
+    Addable, ElementDef, Encoding, Ply, PropertyAccess, PropertyDef, PropertyType, ScalarType,
+};
+use ply_rs_bw::writer::Writer;
+
+/// One PLY record: the writer asks each for its properties by name, so records borrow nothing
+/// and no per-vertex map is built (`DefaultElement` would allocate one per vertex).
+#[derive(Clone)]
+enum Record {
+    Vertex {
+        position: [f32; 3],
+        normal: [f32; 3],
+        normal_velocity: f32,
+    },
+    Face([u32; 3]),
+}
+
+impl PropertyAccess for Record {
+    /// Required by the trait for reading, which this type is never used for.
+    fn new() -> Self {
+        Record::Face([0; 3])
+    }
+
+    fn get_float(&self, name: &str) -> Option<f32> {
+        let Record::Vertex {
+            position: p,
+            normal: n,
+            normal_velocity,
+        } = self
+        else {
+            return None;
+        };
+        Some(match name {
+            "x" => p[0],
+            "y" => p[1],
+            "z" => p[2],
+            "nx" => n[0],
+            "ny" => n[1],
+            "nz" => n[2],
+            "normal_velocity" => *normal_velocity,
+            _ => return None,
+        })
+    }
+
+    fn get_list_uint(&self, name: &str) -> Option<&[u32]> {
+        match self {
+            Record::Face(f) if name == "vertex_indices" => Some(f),
+            _ => None,
+        }
+    }
+}
+
+pub(super) fn encode(mesh: &Mesh, name: &str) -> Result<Vec<u8>> {
+    let attributes = !mesh.normals.is_empty();
+    let mut ply = Ply::<Record>::new();
+    ply.header.encoding = Encoding::BinaryLittleEndian;
+    ply.header
+        .comments
+        .push(format!("DynaSlice surface: {name}"));
+    let float = |n: &str| PropertyDef::new(n.to_string(), PropertyType::Scalar(ScalarType::Float));
+    let mut vertex = ElementDef::new("vertex".to_string());
+    let mut names = vec!["x", "y", "z"];
+    if attributes {
+        names.extend(["nx", "ny", "nz", "normal_velocity"]);
+    }
+    names
+        .into_iter()
+        .for_each(|n| vertex.properties.add(float(n)));
+    ply.header.elements.add(vertex);
+    let mut face = ElementDef::new("face".to_string());
+    face.properties.add(PropertyDef::new(
+        "vertex_indices".to_string(),
+        PropertyType::List(ScalarType::UChar, ScalarType::UInt),
+    ));
+    ply.header.elements.add(face);
+    let vertices = (0..mesh.positions.len())
+        .map(|i| Record::Vertex {
+            position: mesh.positions[i],
+            normal: mesh.normals.get(i).copied().unwrap_or_default(),
+            normal_velocity: mesh.normal_velocity.get(i).copied().unwrap_or_default(),
+        })
+        .collect();
+    ply.payload.insert("vertex".to_string(), vertices);
+    ply.payload.insert(
+        "face".to_string(),
+        mesh.triangles.iter().map(|&t| Record::Face(t)).collect(),
+    );
+    let mut out = Vec::new();
+    Writer::new().write_ply(&mut out, &mut ply)?;
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::tetrahedron;
+    use super::*;
+    use ply_rs_bw::parser::Parser;
+    use ply_rs_bw::ply::{DefaultElement, Property};
+
+    #[test]
+    fn round_trips_through_the_parser() {
+        let mesh = tetrahedron();
+        let bytes = encode(&mesh, "lv").unwrap();
+        assert!(bytes.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
+        let ply = Parser::<DefaultElement>::new()
+            .read_ply(&mut bytes.as_slice())
+            .unwrap();
+        let v = &ply.payload["vertex"];
+        assert_eq!(v.len(), 4);
+        assert_eq!(v[3]["z"], Property::Float(1.0));
+        assert_eq!(v[1]["nx"], Property::Float(1.0));
+        assert_eq!(v[2]["normal_velocity"], Property::Float(2.0));
+        let f = &ply.payload["face"];
+        assert_eq!(f[3]["vertex_indices"], Property::ListUInt(vec![1, 2, 3]));
+    }
+}
