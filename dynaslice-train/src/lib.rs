@@ -3,6 +3,7 @@
 
 pub mod cli;
 pub mod data;
+pub mod experiments;
 pub mod frame_range;
 pub mod geometry;
 pub mod mesh;

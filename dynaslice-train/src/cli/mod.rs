@@ -4,6 +4,7 @@ mod bench;
 mod info;
 mod input;
 mod query;
+mod results;
 mod synth;
 mod train;
 
@@ -26,6 +27,8 @@ enum Command {
     Info(info::Args),
     /// Fit a 4D multi-class neural SDF to cross-sections and write the model.
     Train(train::Args),
+    /// Reproduce the paper's tables (docs/results.md) on the synthetic benchmark.
+    Results(results::Args),
     /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
     Query(query::Args),
     /// Write the synthetic 4D benchmark: training slices (native JSON) and ground-truth NIfTI.
@@ -39,6 +42,7 @@ pub fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Info(args) => info::run(args),
         Command::Query(args) => query::run(args),
+        Command::Results(args) => results::run(args),
         Command::Train(args) => train::run(args),
         Command::Synth(args) => synth::run(args),
     };
