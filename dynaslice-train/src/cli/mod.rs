@@ -3,6 +3,7 @@
 mod bench;
 mod info;
 mod input;
+mod mesh;
 mod query;
 mod results;
 mod synth;
@@ -29,6 +30,8 @@ enum Command {
     Train(train::Args),
     /// Reproduce the paper's tables (docs/results.md) on the synthetic benchmark.
     Results(results::Args),
+    /// Extract the classes' surfaces at a time or a series of times as closed meshes.
+    Mesh(mesh::Args),
     /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
     Query(query::Args),
     /// Write the synthetic 4D benchmark: training slices (native JSON) and ground-truth NIfTI.
@@ -41,6 +44,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Info(args) => info::run(args),
+        Command::Mesh(args) => mesh::run(args),
         Command::Query(args) => query::run(args),
         Command::Results(args) => results::run(args),
         Command::Train(args) => train::run(args),
