@@ -59,7 +59,7 @@ pub struct TrainOptions {
 
 impl Default for TrainOptions {
     /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
-    /// 3000 steps, ω₀ = 10, lr 3e-4 → 3e-5, λ_n = λ_d = 0.1, λ_r = 0.05, α = 50, all threads,
+    /// 3000 steps, ω₀ = 10, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.05, α = 50, all threads,
     /// no checkpoint; `omega_t_max` must be set from the data ([`super::data_sampler::temporal_bound`]).
     fn default() -> Self {
         TrainOptions {
@@ -69,8 +69,8 @@ impl Default for TrainOptions {
             omega_0: 10.0,
             seed: 0,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
-            lr: 3e-4,
-            lr_final: 3e-5,
+            lr: 1e-3,
+            lr_final: 1e-4,
             loss: LossWeights {
                 orientation: 0.1,
                 plane: 0.1,
