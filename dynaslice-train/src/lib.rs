@@ -9,6 +9,7 @@ pub mod geometry;
 pub mod mesh;
 pub mod metrics;
 pub mod model_file;
+pub mod picture;
 pub mod plot;
 pub mod sampling;
 pub mod synth;

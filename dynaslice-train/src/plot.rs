@@ -14,7 +14,8 @@ pub struct Series<'a> {
     pub points: Vec<(f64, f64)>,
 }
 
-fn register_font() {
+/// Registers the bundled font as `sans-serif` (once per process).
+pub fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The bundled font is valid TTF; registration can only fail on malformed bytes.

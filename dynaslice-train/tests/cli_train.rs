@@ -3,60 +3,12 @@
 //! uninterrupted run.
 
 use dynaslice_core::Model;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-/// A sphere of radius r(t) = 10 + 2t mm cut by 5 z-planes, at times 0, 1, 2 (s), as a .csl
-/// manifest with one file per timestep (counter-clockwise circles, label 1).
-fn write_sequence(dir: &Path) -> PathBuf {
-    let mut manifest = String::new();
-    for (i, t) in [0.0f64, 1.0, 2.0].iter().enumerate() {
-        let r = 10.0 + 2.0 * t;
-        let zs = [-6.0f64, -3.0, 0.0, 3.0, 6.0];
-        let mut csl = format!("CSLC\n{} 1\n\n", zs.len());
-        for (p, z) in zs.iter().enumerate() {
-            let rc = (r * r - z * z).sqrt();
-            let n = 48;
-            csl += &format!("{} {n} 1 0 0 1 {}\n\n", p + 1, -z);
-            for j in 0..n {
-                let a = std::f64::consts::TAU * j as f64 / n as f64;
-                csl += &format!("{} {} {z}\n", rc * a.cos(), rc * a.sin());
-            }
-            csl += &format!(
-                "\n{n} 1 {}\n\n",
-                (0..n).map(|j| j.to_string()).collect::<Vec<_>>().join(" ")
-            );
-        }
-        let name = format!("ball_{i}.csl");
-        std::fs::write(dir.join(&name), csl).unwrap();
-        manifest += &format!("{t} {name}\n");
-    }
-    let path = dir.join("ball.cslseq");
-    std::fs::write(&path, manifest).unwrap();
-    path
-}
+mod common;
 
-fn train_command(input: &Path, out: &Path, extra: &[&str]) -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_dynaslice"));
-    c.args([
-        "train",
-        input.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ])
-    .args([
-        "--widths",
-        "32,32",
-        "--contour-samples",
-        "256",
-        "--plane-samples",
-        "256",
-    ])
-    .args(["--space-samples", "256", "--threads", "2", "--seed", "7"])
-    .args(extra);
-    c
-}
+use common::{train_command, write_sequence};
 
 #[test]
 fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {

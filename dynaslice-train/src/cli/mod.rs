@@ -4,6 +4,7 @@ mod bench;
 mod info;
 mod input;
 mod mesh;
+mod picture;
 mod query;
 mod results;
 mod synth;
@@ -32,6 +33,8 @@ enum Command {
     Results(results::Args),
     /// Extract the classes' surfaces at a time or a series of times as closed meshes.
     Mesh(mesh::Args),
+    /// Draw a model's labels and the input contours on an input plane, at several times (PNG).
+    Picture(picture::Args),
     /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
     Query(query::Args),
     /// Write the synthetic 4D benchmark: training slices (native JSON) and ground-truth NIfTI.
@@ -45,6 +48,7 @@ pub fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Info(args) => info::run(args),
         Command::Mesh(args) => mesh::run(args),
+        Command::Picture(args) => picture::run(args),
         Command::Query(args) => query::run(args),
         Command::Results(args) => results::run(args),
         Command::Train(args) => train::run(args),
