@@ -1,6 +1,7 @@
 //! The `dynaslice` command line: one file per subcommand, each a thin layer over the library.
 
 mod bench;
+mod demo;
 mod info;
 mod input;
 mod mesh;
@@ -23,6 +24,9 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// The main job on built-in data: slice a multi-class synthetic sequence, train, then write
+    /// meshes for all 37 frames (ParaView series) and a figure.
+    Demo(demo::Args),
     /// Measure the training step's speed against this machine's sgemm peak.
     Bench(bench::Args),
     /// Print a model's dimensions, domain, time range, classes and metadata.
@@ -43,8 +47,19 @@ enum Command {
 
 /// Parses the process arguments and runs the chosen subcommand.
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
+    match run(Cli::parse().command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Runs one subcommand.
+fn run(command: Command) -> anyhow::Result<()> {
+    match command {
+        Command::Demo(args) => demo::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Info(args) => info::run(args),
         Command::Mesh(args) => mesh::run(args),
@@ -53,12 +68,14 @@ pub fn main() -> ExitCode {
         Command::Results(args) => results::run(args),
         Command::Train(args) => train::run(args),
         Command::Synth(args) => synth::run(args),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
     }
+}
+
+/// Runs the command line `args` (without the program name), echoing it first, as a user would
+/// type it: the demo is a script of ordinary subcommands.
+fn run_line(args: &[String]) -> anyhow::Result<()> {
+    eprintln!("\n$ dynaslice {}", args.join(" "));
+    let cli =
+        Cli::try_parse_from(std::iter::once("dynaslice".to_string()).chain(args.iter().cloned()))?;
+    run(cli.command)
 }
