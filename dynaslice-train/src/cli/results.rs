@@ -1,6 +1,6 @@
 //! `dynaslice results`: reproduce the paper's tables and write them as markdown.
 
-use crate::experiments::synthetic::{self, Protocol, Variant};
+use crate::experiments::synthetic::{self, Protocol, Scene, Variant};
 use crate::model_file::write_atomically;
 use crate::synth::Shape;
 use crate::train::data_sampler::SampleCounts;
@@ -15,7 +15,8 @@ pub struct Args {
     /// Markdown output (a per-frame CSV and the trained models are written beside it).
     #[arg(short, long, default_value = "docs/results.md")]
     output: PathBuf,
-    /// Training wall time per (shape, variant), minutes.
+    /// Training time per (shape, variant) in minutes, as a step count calibrated per shape at
+    /// the start (every variant then runs exactly those steps).
     #[arg(long, default_value_t = 5.0)]
     minutes: f64,
     /// IoU grid resolution (cells per axis).
@@ -90,8 +91,10 @@ pub fn run(a: Args) -> Result<()> {
     std::fs::create_dir_all(&models)
         .with_context(|| format!("cannot create {}", models.display()))?;
     for &shape in &a.shapes {
+        let scene = Scene::new(shape)?;
+        let steps = scene.calibrate(&protocol)?;
         for &v in &variants {
-            let run = synthetic::run(shape, v, &protocol, &mut |line| eprintln!("{line}"))?;
+            let run = scene.run(v, &protocol, steps, &mut |line| eprintln!("{line}"))?;
             for (i, ((iou, annotated), classes)) in run
                 .frame_iou
                 .iter()

@@ -2,6 +2,7 @@
 //! a fixed wall time per variant, then scored at all 37 frames by 3D IoU of the Eq. 11 labels
 //! against the exact analytic shapes, split into annotated (trained) and unannotated frames.
 
+use crate::data::Sequence;
 use crate::metrics::iou::label_overlap;
 use crate::synth::{slice_sequence, BenchmarkOptions, Shape};
 use crate::train::data_sampler::{domain_for, temporal_bound, DataSampler, SampleCounts};
@@ -10,7 +11,7 @@ use anyhow::{anyhow, Result};
 use dynaslice_core::Model;
 use std::fmt::Write as _;
 use std::ops::ControlFlow;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// The ablations of Table 3.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -111,8 +112,8 @@ pub struct Protocol {
     pub temporal_factor: f32,
 }
 
-/// Seconds per step of `options` on `sampler`'s data, from a short timed run (so a run of a
-/// given wall time gets a schedule that ends when its time does).
+/// Seconds per step of `options` on `sampler`'s data, from a short timed run (the first step,
+/// which warms caches and allocators, is not counted).
 fn seconds_per_step(options: &TrainOptions, k: usize, sampler: &mut dyn Sampler) -> Result<f64> {
     let mut probe = options.clone();
     probe.steps = 6;
@@ -130,97 +131,137 @@ fn seconds_per_step(options: &TrainOptions, k: usize, sampler: &mut dyn Sampler)
     Ok(warm.as_secs_f64() / 5.0)
 }
 
-/// Trains `variant` on `shape` and scores it at every benchmark frame.
-pub fn run(shape: Shape, variant: Variant, p: &Protocol, log: &mut dyn FnMut(&str)) -> Result<Run> {
-    let bench = BenchmarkOptions::default();
-    let seq =
-        slice_sequence(shape, &bench).map_err(|e| anyhow!("slicing {}: {e}", shape.name()))?;
-    let k = seq.classes().len();
-    let domain = domain_for(&seq);
-    let mut options = p.options.clone();
-    options.loss.orientation = if variant.orientation() {
-        p.options.loss.orientation
-    } else {
-        0.0
-    };
-    options.omega_t_max =
-        temporal_bound(&seq, &domain, p.temporal_factor, variant.temporal_control());
-    let mut sampler = DataSampler::new(&seq, domain, p.counts);
-    let per_step = seconds_per_step(&options, k, &mut sampler)?;
-    options.steps = ((p.minutes * 60.0 / per_step) as u64).max(1);
-    options.time_limit = Some(Duration::from_secs_f64(p.minutes * 60.0 * 1.05));
-    log(&format!(
-        "{} / {}: {:.3} s per step, {} steps",
-        shape.name(),
-        variant.name(),
-        per_step,
-        options.steps
-    ));
-    let outcome = train(&options, k, &mut sampler, |_| ControlFlow::Continue(()))?;
-    let classes = seq
-        .classes()
-        .iter()
-        .map(|c| (c.name.clone(), c.label))
-        .collect();
-    let bytes = outcome
-        .network
-        .to_writer(domain, classes, options.describe())
-        .try_to_bytes()
-        .map_err(|e| anyhow!("model: {e}"))?;
-    let aligned = crate::model_file::AlignedBytes::copy_from(&bytes);
-    let model = Model::from_bytes(&aligned).map_err(|e| anyhow!("model: {e}"))?;
-    let truth = |c: usize, x: [f64; 3], t: f64| shape.sdf(c, x, t);
-    let mut frame_iou = Vec::with_capacity(bench.timesteps);
-    let mut frame_class_iou = Vec::with_capacity(bench.timesteps);
-    let mut class_sum = vec![0.0; k];
-    let mut class_count = vec![0usize; k];
-    for i in 0..bench.timesteps {
-        let overlap = label_overlap(
-            &model,
-            &truth,
-            ([-1.0; 3], [1.0; 3]),
-            p.resolution,
-            bench.time(i),
+/// One benchmark shape, sliced by the paper's protocol.
+pub struct Scene {
+    shape: Shape,
+    bench: BenchmarkOptions,
+    seq: Sequence,
+}
+
+impl Scene {
+    /// Slices `shape` (every 4th of 37 frames).
+    pub fn new(shape: Shape) -> Result<Scene> {
+        let bench = BenchmarkOptions::default();
+        let seq =
+            slice_sequence(shape, &bench).map_err(|e| anyhow!("slicing {}: {e}", shape.name()))?;
+        Ok(Scene { shape, bench, seq })
+    }
+
+    /// Options of `variant` for this scene.
+    fn options(&self, variant: Variant, p: &Protocol) -> TrainOptions {
+        let mut options = p.options.clone();
+        if !variant.orientation() {
+            options.loss.orientation = 0.0;
+        }
+        options.omega_t_max = temporal_bound(
+            &self.seq,
+            &domain_for(&self.seq),
+            p.temporal_factor,
+            variant.temporal_control(),
         );
-        let iou = overlap.iou();
-        let present: Vec<f64> = iou.iter().flatten().copied().collect();
-        frame_iou.push(present.iter().sum::<f64>() / present.len().max(1) as f64);
-        frame_class_iou.push(iou.clone());
-        for (c, v) in iou.iter().enumerate() {
-            if let Some(v) = v {
-                class_sum[c] += v;
-                class_count[c] += 1;
+        options
+    }
+
+    /// Steps that take `p.minutes` on this machine now. Every variant then trains for exactly
+    /// these steps: equal compute (the variants cost the same per step), and a comparison that a
+    /// busy machine cannot tilt.
+    pub fn calibrate(&self, p: &Protocol) -> Result<u64> {
+        let mut sampler = DataSampler::new(&self.seq, domain_for(&self.seq), p.counts);
+        let per_step = seconds_per_step(
+            &self.options(Variant::Full, p),
+            self.seq.classes().len(),
+            &mut sampler,
+        )?;
+        Ok(((p.minutes * 60.0 / per_step) as u64).max(1))
+    }
+
+    /// Trains `variant` for `steps` and scores it at every benchmark frame.
+    pub fn run(
+        &self,
+        variant: Variant,
+        p: &Protocol,
+        steps: u64,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<Run> {
+        let (shape, bench, seq) = (self.shape, &self.bench, &self.seq);
+        let k = seq.classes().len();
+        let domain = domain_for(seq);
+        let mut options = self.options(variant, p);
+        options.steps = steps;
+        options.time_limit = None;
+        let mut sampler = DataSampler::new(seq, domain, p.counts);
+        log(&format!(
+            "{} / {}: {} steps",
+            shape.name(),
+            variant.name(),
+            steps
+        ));
+        let outcome = train(&options, k, &mut sampler, |_| ControlFlow::Continue(()))?;
+        let classes = seq
+            .classes()
+            .iter()
+            .map(|c| (c.name.clone(), c.label))
+            .collect();
+        let bytes = outcome
+            .network
+            .to_writer(domain, classes, options.describe())
+            .try_to_bytes()
+            .map_err(|e| anyhow!("model: {e}"))?;
+        let aligned = crate::model_file::AlignedBytes::copy_from(&bytes);
+        let model = Model::from_bytes(&aligned).map_err(|e| anyhow!("model: {e}"))?;
+        let truth = |c: usize, x: [f64; 3], t: f64| shape.sdf(c, x, t);
+        let mut frame_iou = Vec::with_capacity(bench.timesteps);
+        let mut frame_class_iou = Vec::with_capacity(bench.timesteps);
+        let mut class_sum = vec![0.0; k];
+        let mut class_count = vec![0usize; k];
+        for i in 0..bench.timesteps {
+            let overlap = label_overlap(
+                &model,
+                &truth,
+                ([-1.0; 3], [1.0; 3]),
+                p.resolution,
+                bench.time(i),
+            );
+            let iou = overlap.iou();
+            let present: Vec<f64> = iou.iter().flatten().copied().collect();
+            frame_iou.push(present.iter().sum::<f64>() / present.len().max(1) as f64);
+            frame_class_iou.push(iou.clone());
+            for (c, v) in iou.iter().enumerate() {
+                if let Some(v) = v {
+                    class_sum[c] += v;
+                    class_count[c] += 1;
+                }
             }
         }
+        let run = Run {
+            shape,
+            variant,
+            steps: outcome.steps_done,
+            train_seconds: outcome.elapsed.as_secs_f64(),
+            frame_iou,
+            frame_class_iou,
+            model: bytes,
+            class_iou: class_sum
+                .iter()
+                .zip(&class_count)
+                .map(|(s, &n)| s / n.max(1) as f64)
+                .collect(),
+            annotated: (0..bench.timesteps)
+                .map(|i| i % bench.train_every == 0)
+                .collect(),
+        };
+        log(&format!(
+            "{} / {}: IoU {:.4} (annotated {:.4}, unannotated {:.4}) after {} steps in {:.0} s",
+            shape.name(),
+            variant.name(),
+            run.mean_all(),
+            run.mean_annotated(),
+            run.mean_unannotated(),
+            run.steps,
+            run.train_seconds
+        ));
+        Ok(run)
     }
-    let run = Run {
-        shape,
-        variant,
-        steps: outcome.steps_done,
-        train_seconds: outcome.elapsed.as_secs_f64(),
-        frame_iou,
-        frame_class_iou,
-        model: bytes,
-        class_iou: class_sum
-            .iter()
-            .zip(&class_count)
-            .map(|(s, &n)| s / n.max(1) as f64)
-            .collect(),
-        annotated: (0..bench.timesteps)
-            .map(|i| i % bench.train_every == 0)
-            .collect(),
-    };
-    log(&format!(
-        "{} / {}: IoU {:.4} (annotated {:.4}, unannotated {:.4}) after {} steps in {:.0} s",
-        shape.name(),
-        variant.name(),
-        run.mean_all(),
-        run.mean_annotated(),
-        run.mean_unannotated(),
-        run.steps,
-        run.train_seconds
-    ));
-    Ok(run)
 }
 
 /// The Table 3 markdown of `runs`, with the protocol and the command that made it.
@@ -231,7 +272,8 @@ pub fn markdown(runs: &[Run], p: &Protocol, command: &str) -> String {
     let _ = writeln!(
         s,
         "Protocol: each shape of `dynaslice synth` sliced at every 4th of 37 frames (15 + 15 planes, \
-         35 + 35 for the thin tube); each variant trained for {} min of wall time on {} threads \
+         35 + 35 for the thin tube); every variant trained for the same number of steps, \
+         calibrated per shape to take {} min on {} threads of this machine \
          (network {:?}, {} contour + {} plane samples per class and {} space-time samples per step); \
          3D IoU of the Eq. 11 labels against the exact shapes on a {}³ grid over [−1, 1]³ at all 37 \
          frames, averaged over classes present, then over frames.\n",
