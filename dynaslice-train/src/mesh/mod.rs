@@ -331,16 +331,21 @@ mod tests {
         assert!(cap > 20, "{cap}");
     }
 
-    /// The target: at 256³, at least 10x fewer evaluations than the dense grid.
+    /// The target: at 256³, at least 10x fewer evaluations than the dense grid (the
+    /// figures in docs/meshing.md come from this test's output at 128 and 256).
     #[test]
     fn sparse_sampling_costs_a_tenth_of_dense_at_256() {
         let ball = Analytic::new(vec![Shape::sphere([0.0; 3], 0.6, 0.0)]);
-        let x = extract(&ball, CUBE, 0.0, &[0], &options(256)).unwrap();
-        let s = x.stats;
-        println!("sphere r = 0.6 in [-1, 1]^3 at 256: {s:?}");
-        assert_eq!(s.dense_evaluations, 257 * 257 * 257);
-        assert!(s.value_evaluations * 10 < s.dense_evaluations, "{s:?}");
-        assert!(rel(x.meshes[0].enclosed_volume(), 0.288 * PI) < 1e-4);
+        for resolution in [128, 256] {
+            let x = extract(&ball, CUBE, 0.0, &[0], &options(resolution)).unwrap();
+            let s = x.stats;
+            println!("sphere r = 0.6 in [-1, 1]^3 at {resolution}: {s:?}");
+            assert_eq!(s.dense_evaluations, (resolution as u64 + 1).pow(3));
+            assert!(rel(x.meshes[0].enclosed_volume(), 0.288 * PI) < 1e-3);
+            if resolution == 256 {
+                assert!(s.value_evaluations * 10 < s.dense_evaluations, "{s:?}");
+            }
+        }
     }
 
     #[test]
