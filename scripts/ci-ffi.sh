@@ -57,7 +57,7 @@ if grep -q '^SKIPPED' "$work/test.log"; then
 fi
 
 step "release build and install"
-cargo build --release -p dynaslice-ffi --example sphere_fixture
+cargo build --release -p dynaslice-ffi --lib --example sphere_fixture
 sh dynaslice-ffi/install.sh "$work/prefix" target/release
 
 step "VTK example"
