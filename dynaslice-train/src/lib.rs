@@ -6,6 +6,7 @@ pub mod data;
 pub mod experiments;
 pub mod frame_range;
 pub mod geometry;
+pub mod labels;
 pub mod mesh;
 pub mod metrics;
 pub mod model_file;

@@ -4,6 +4,7 @@ mod bench;
 mod demo;
 mod info;
 mod input;
+mod labels;
 mod mesh;
 mod picture;
 mod query;
@@ -35,6 +36,8 @@ enum Command {
     Train(train::Args),
     /// Reproduce the paper's tables (docs/results.md) on the synthetic benchmark.
     Results(results::Args),
+    /// Write a model's Eq. 11 label volume (NIfTI) on a reference image's grid or a box.
+    Labels(labels::Args),
     /// Extract the classes' surfaces at a time or a series of times as closed meshes.
     Mesh(mesh::Args),
     /// Draw a model's labels and the input contours on an input plane, at several times (PNG).
@@ -62,6 +65,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Demo(args) => demo::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Info(args) => info::run(args),
+        Command::Labels(args) => labels::run(args),
         Command::Mesh(args) => mesh::run(args),
         Command::Picture(args) => picture::run(args),
         Command::Query(args) => query::run(args),
