@@ -4,7 +4,7 @@ use dynaslice_core::Model;
 use std::process::Command;
 
 #[test]
-fn demo_writes_model_meshes_series_and_figure() {
+fn demo_writes_model_meshes_series_labels_and_figure() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("demo");
     let run = Command::new(env!("CARGO_BIN_EXE_dynaslice"))

@@ -77,7 +77,8 @@ pub fn run(a: Args) -> Result<()> {
         run_line(line)?;
     }
     eprintln!(
-        "\ndemo finished in {:.0} s; outputs in {}: model.dsm (+ .loss.png), meshes/series.pvd (open in ParaView), figure.png",
+        "\ndemo finished in {:.0} s; outputs in {}: model.dsm (+ .loss.png), meshes/series.pvd (open in ParaView), \
+         labels.nii.gz (on the ground truth's grid, 37 frames), figure.png",
         start.elapsed().as_secs_f64(),
         a.output.display()
     );

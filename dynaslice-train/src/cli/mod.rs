@@ -26,7 +26,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// The main job on built-in data: slice a multi-class synthetic sequence, train, then write
-    /// meshes for all 37 frames (ParaView series) and a figure.
+    /// meshes for all 37 frames (ParaView series), a label-volume NIfTI and a figure.
     Demo(demo::Args),
     /// Measure the training step's speed against this machine's sgemm peak.
     Bench(bench::Args),
