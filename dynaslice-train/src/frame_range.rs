@@ -28,6 +28,12 @@ impl FrameRange {
         let end = self.end.unwrap_or(count).min(count);
         (self.start..end).step_by(self.step).collect()
     }
+
+    /// Whether frame `index` is selected among `count` frames.
+    pub fn contains(&self, index: usize, count: usize) -> bool {
+        let end = self.end.unwrap_or(count).min(count);
+        (self.start..end).contains(&index) && (index - self.start).is_multiple_of(self.step)
+    }
 }
 
 impl fmt::Display for FrameRange {

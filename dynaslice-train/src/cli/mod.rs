@@ -2,6 +2,7 @@
 
 mod bench;
 mod demo;
+mod eval;
 mod info;
 mod input;
 mod labels;
@@ -30,6 +31,8 @@ enum Command {
     Demo(demo::Args),
     /// Measure the training step's speed against this machine's sgemm peak.
     Bench(bench::Args),
+    /// Accuracy against ground truth or held-out slices, and class volumes over time.
+    Eval(eval::Args),
     /// Print a model's dimensions, domain, time range, classes and metadata.
     Info(info::Args),
     /// Fit a 4D multi-class neural SDF to cross-sections and write the model.
@@ -64,6 +67,7 @@ fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Demo(args) => demo::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Eval(args) => eval::run(args),
         Command::Info(args) => info::run(args),
         Command::Labels(args) => labels::run(args),
         Command::Mesh(args) => mesh::run(args),

@@ -30,7 +30,43 @@ impl Overlap {
             .collect()
     }
 
+    /// No points yet, for `classes` classes.
+    pub fn zeros(classes: usize) -> Overlap {
+        Overlap {
+            intersection: vec![0; classes],
+            union: vec![0; classes],
+        }
+    }
+
+    /// Counts `predicted` and `actual` labels (0 = background, k = class k) of one point.
+    #[inline]
+    pub fn count(&mut self, predicted: u32, actual: u32) {
+        for (i, (n, u)) in self
+            .intersection
+            .iter_mut()
+            .zip(&mut self.union)
+            .enumerate()
+        {
+            let c = i as u32 + 1;
+            let (a, b) = (predicted == c, actual == c);
+            *n += (a && b) as u64;
+            *u += (a || b) as u64;
+        }
+    }
+}
+
+/// The counts of both, e.g. over several planes or slabs.
+impl std::ops::Add for Overlap {
+    type Output = Overlap;
+
     fn add(mut self, o: Overlap) -> Overlap {
+        self += o;
+        self
+    }
+}
+
+impl std::ops::AddAssign for Overlap {
+    fn add_assign(&mut self, o: Overlap) {
         self.intersection
             .iter_mut()
             .zip(&o.intersection)
@@ -39,7 +75,6 @@ impl Overlap {
             .iter_mut()
             .zip(&o.union)
             .for_each(|(a, b)| *a += b);
-        self
     }
 }
 
@@ -66,10 +101,7 @@ pub fn label_overlap(
     t: f64,
 ) -> Overlap {
     let k = model.num_classes();
-    let empty = Overlap {
-        intersection: vec![0; k],
-        union: vec![0; k],
-    };
+    let empty = Overlap::zeros(k);
     (0..resolution)
         .into_par_iter()
         .map_init(Scratch::boxed, |scratch, z| {
@@ -88,18 +120,12 @@ pub fn label_overlap(
                     dist.iter_mut()
                         .enumerate()
                         .for_each(|(c, d)| *d = truth(c, x, t) as f32);
-                    let actual = argmin_label(&dist);
-                    for c in 1..=k as u32 {
-                        let (a, b) = (predicted == c, actual == c);
-                        let i = c as usize - 1;
-                        o.intersection[i] += (a && b) as u64;
-                        o.union[i] += (a || b) as u64;
-                    }
+                    o.count(predicted, argmin_label(&dist));
                 }
             }
             o
         })
-        .reduce(|| empty.clone(), Overlap::add)
+        .reduce(|| empty.clone(), |a, b| a + b)
 }
 
 #[cfg(test)]

@@ -1,0 +1,413 @@
+//! `dynaslice eval …`: accuracy of a model against ground truth (synthetic benchmark, reference
+//! mesh), on held-out slices, and its class volumes over time. Definitions: docs/metrics.md.
+
+use super::input::{self, InputArgs};
+use crate::data::native;
+use crate::frame_range::FrameRange;
+use crate::labels::grid::parse_times;
+use crate::mesh::{self, Surfaces};
+use crate::metrics::chamfer::{self, DEFAULT_SAMPLES};
+use crate::metrics::heldout::{self, Split, DEFAULT_PIXELS};
+use crate::metrics::iou::label_overlap;
+use crate::metrics::volume::volume_curve;
+use crate::metrics::{FrameTable, Frames};
+use crate::model_file::read_model_bytes;
+use crate::synth::{BenchmarkOptions, Shape};
+use anyhow::{bail, Context, Result};
+use dynaslice_core::Model;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `dynaslice eval`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(subcommand)]
+    what: What,
+}
+
+#[derive(clap::Subcommand, Debug)]
+enum What {
+    /// 3D IoU and Chamfer distance against a synthetic benchmark shape at every frame, split
+    /// into annotated and unannotated frames.
+    Synthetic(SyntheticArgs),
+    /// Chamfer distance of one class against a reference mesh (STL) at one time.
+    Reference(ReferenceArgs),
+    /// 2D IoU on the planes and frames a split withheld (spatial, temporal, spatio-temporal).
+    Heldout(HeldoutArgs),
+    /// Write the training input of a held-out split (native JSON) for `dynaslice train`.
+    Split(SplitArgs),
+    /// Each class's volume over time: CSV and a PNG chart beside it.
+    Volume(VolumeArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct SyntheticArgs {
+    /// Model file (.dsm), trained on `dynaslice synth` slices of the shape.
+    model: PathBuf,
+    /// Benchmark shape: blob, tube, torus or chambers.
+    #[arg(long)]
+    shape: Shape,
+    /// Frames the model was trained on, among the 37 (default: the protocol's every 4th).
+    #[arg(long, default_value = "0::4", value_name = "A:B:STEP")]
+    annotated: FrameRange,
+    /// Cells per axis of the IoU grid over [−1, 1]³.
+    #[arg(long, default_value_t = 64)]
+    resolution: usize,
+    /// Lattice cells per axis for the model's meshes.
+    #[arg(long, default_value_t = 128)]
+    mesh_resolution: u32,
+    /// Lattice cells per axis for the exact shapes' meshes.
+    #[arg(long, default_value_t = 256)]
+    truth_resolution: u32,
+    /// Area-uniform samples per surface for the Chamfer distance.
+    #[arg(long, default_value_t = DEFAULT_SAMPLES)]
+    samples: usize,
+    /// Per-frame CSV (IoU and CD×10⁴ per class).
+    #[arg(long)]
+    csv: Option<PathBuf>,
+}
+
+#[derive(clap::Args, Debug)]
+struct ReferenceArgs {
+    /// Model file (.dsm).
+    model: PathBuf,
+    /// Reference surface (.stl, binary or ASCII), in the model's world coordinates.
+    reference: PathBuf,
+    /// World time of the model's surface (default: the start of its time range).
+    #[arg(long, allow_negative_numbers = true)]
+    time: Option<f64>,
+    /// Class compared with the reference, 1..K.
+    #[arg(long, default_value_t = 1)]
+    class: usize,
+    /// Lattice cells along the longest axis of the model's domain.
+    #[arg(long, default_value_t = 128)]
+    mesh_resolution: u32,
+    /// Area-uniform samples per surface.
+    #[arg(long, default_value_t = DEFAULT_SAMPLES)]
+    samples: usize,
+}
+
+/// Which frames and planes a split withholds.
+#[derive(clap::Args, Debug, Clone)]
+struct Holdout {
+    /// Frames withheld from training (indices of the full input), A:B:STEP.
+    #[arg(long, value_name = "A:B:STEP")]
+    holdout_frames: Option<FrameRange>,
+    /// Planes withheld from training (indices within each frame), A:B:STEP.
+    #[arg(long, value_name = "A:B:STEP")]
+    holdout_planes: Option<FrameRange>,
+}
+
+impl Holdout {
+    fn split(&self) -> Split {
+        Split {
+            frames: self.holdout_frames,
+            planes: self.holdout_planes,
+        }
+    }
+}
+
+#[derive(clap::Args, Debug)]
+struct HeldoutArgs {
+    /// Model file (.dsm), trained on `dynaslice eval split`'s output for the same split.
+    model: PathBuf,
+    #[command(flatten)]
+    input: InputArgs,
+    #[command(flatten)]
+    holdout: Holdout,
+    /// Pixels along the longer side of each plane's region of interest.
+    #[arg(long, default_value_t = DEFAULT_PIXELS)]
+    pixels: usize,
+}
+
+#[derive(clap::Args, Debug)]
+struct SplitArgs {
+    #[command(flatten)]
+    input: InputArgs,
+    #[command(flatten)]
+    holdout: Holdout,
+    /// Output training input (.json).
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+struct VolumeArgs {
+    /// Model file (.dsm).
+    model: PathBuf,
+    /// N times evenly from A to B inclusive (default: the model's time range in 20 steps).
+    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true)]
+    times: Option<String>,
+    /// Lattice cells along the longest axis of the model's domain.
+    #[arg(long, default_value_t = 128)]
+    resolution: u32,
+    /// Output CSV; the chart is written beside it as .png.
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    match a.what {
+        What::Synthetic(a) => synthetic(a),
+        What::Reference(a) => reference(a),
+        What::Heldout(a) => held_out(a),
+        What::Split(a) => split(a),
+        What::Volume(a) => volume(a),
+    }
+}
+
+/// Reads a model into aligned bytes; `Model::from_bytes` borrows them.
+fn load(path: &Path) -> Result<crate::model_file::AlignedBytes> {
+    let bytes = read_model_bytes(path)?;
+    Model::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(bytes)
+}
+
+fn model(bytes: &[u8]) -> Model<'_> {
+    Model::from_bytes(bytes).expect("validated by load")
+}
+
+fn fmt(v: Option<f64>, digits: usize) -> String {
+    v.map_or("n/a".into(), |v| format!("{v:.digits$}"))
+}
+
+fn synthetic(a: SyntheticArgs) -> Result<()> {
+    let bytes = load(&a.model)?;
+    let model = model(&bytes);
+    let shape = a.shape;
+    let names = shape.class_names();
+    if model.num_classes() != names.len() {
+        bail!(
+            "{}: {} classes, but {} has {}",
+            a.model.display(),
+            model.num_classes(),
+            shape.name(),
+            names.len()
+        );
+    }
+    let bench = BenchmarkOptions::default();
+    let annotated_frames = a.annotated.indices(bench.timesteps);
+    let times: Vec<f64> = (0..bench.timesteps).map(|i| bench.time(i)).collect();
+    let annotated: Vec<bool> = (0..bench.timesteps)
+        .map(|i| annotated_frames.contains(&i))
+        .collect();
+    let classes: Vec<usize> = (0..names.len()).collect();
+    let truth = |c: usize, x: [f64; 3], t: f64| shape.sdf(c, x, t);
+    let options = mesh::Options {
+        resolution: a.mesh_resolution,
+        surfaces: Surfaces::Partition,
+        ..mesh::Options::default()
+    };
+    // The benchmark's reference box is the domain [−1, 1]³ at every frame.
+    let diagonal = 2.0 * 3f64.sqrt();
+    let (mut iou, mut cd) = (Vec::new(), Vec::new());
+    for (f, &t) in times.iter().enumerate() {
+        iou.push(label_overlap(&model, &truth, ([-1.0; 3], [1.0; 3]), a.resolution, t).iou());
+        let predicted = mesh::extract(
+            &model,
+            model.domain().bounds(),
+            t as f32,
+            &classes,
+            &options,
+        )?;
+        let exact = chamfer::truth_meshes(shape, t, a.truth_resolution)?;
+        cd.push(
+            classes
+                .iter()
+                .map(|&c| {
+                    let seed = (f * names.len() + c) as u64;
+                    let p = chamfer::samples(&predicted.meshes[c], a.samples, 2 * seed);
+                    let q = chamfer::samples(&exact[c], a.samples, 2 * seed + 1);
+                    chamfer::chamfer(&p, &q, diagonal).map(|c| c.scaled())
+                })
+                .collect(),
+        );
+    }
+    let iou = FrameTable {
+        times: times.clone(),
+        annotated: annotated.clone(),
+        values: iou,
+    };
+    let cd = FrameTable {
+        times,
+        annotated,
+        values: cd,
+    };
+    println!(
+        "{} ({} classes), {} frames ({} annotated): 3D IoU on a {}³ grid over [-1, 1]³; \
+         CD×10⁴ over {} samples per surface, unit-normalised by the domain diagonal 2√3",
+        shape.name(),
+        names.len(),
+        iou.times.len(),
+        annotated_frames.len(),
+        a.resolution,
+        a.samples
+    );
+    println!("| | IoU | CD×10⁴ |\n|---|---|---|");
+    for (label, frames) in [
+        ("all frames", Frames::All),
+        ("annotated", Frames::Annotated),
+        ("unannotated", Frames::Unannotated),
+    ] {
+        println!(
+            "| {label} | {} | {} |",
+            fmt(iou.mean(frames), 4),
+            fmt(cd.mean(frames), 3)
+        );
+    }
+    for (c, name) in names.iter().enumerate() {
+        println!(
+            "| class {} {name} | {} | {} |",
+            c + 1,
+            fmt(iou.class_mean(c, Frames::All), 4),
+            fmt(cd.class_mean(c, Frames::All), 3)
+        );
+    }
+    if let Some(path) = &a.csv {
+        let mut s = String::from("frame,time,annotated");
+        for n in names {
+            let _ = write!(s, ",iou {n},cd1e4 {n}");
+        }
+        s.push('\n');
+        for f in 0..iou.times.len() {
+            let _ = write!(s, "{f},{},{}", iou.times[f], iou.annotated[f]);
+            for c in 0..names.len() {
+                let _ = write!(
+                    s,
+                    ",{},{}",
+                    fmt(iou.values[f][c], 6),
+                    fmt(cd.values[f][c], 6)
+                );
+            }
+            s.push('\n');
+        }
+        std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn reference(a: ReferenceArgs) -> Result<()> {
+    let bytes = load(&a.model)?;
+    let model = model(&bytes);
+    let k = model.num_classes();
+    if !(1..=k).contains(&a.class) {
+        bail!(
+            "{}: --class {} but the model has classes 1..{k}",
+            a.model.display(),
+            a.class
+        );
+    }
+    let reference = chamfer::read_stl(&a.reference)?;
+    let t = a.time.unwrap_or(f64::from(model.domain().time_range().0));
+    let options = mesh::Options {
+        resolution: a.mesh_resolution,
+        surfaces: Surfaces::Partition,
+        ..mesh::Options::default()
+    };
+    let x = mesh::extract(
+        &model,
+        model.domain().bounds(),
+        t as f32,
+        &[a.class - 1],
+        &options,
+    )?;
+    let diagonal = chamfer::bounding_diagonal(&reference);
+    let p = chamfer::samples(&x.meshes[0], a.samples, 0);
+    let q = chamfer::samples(&reference, a.samples, 1);
+    let Some(cd) = chamfer::chamfer(&p, &q, diagonal) else {
+        bail!(
+            "{}: class {} has no surface at time {t}; no Chamfer distance",
+            a.model.display(),
+            a.class
+        );
+    };
+    println!(
+        "CD×10⁴ = {:.4} (model → reference {:.4}, reference → model {:.4}); {} samples per \
+         surface, unit-normalised by the reference's bounding-box diagonal {diagonal:.4}",
+        cd.scaled(),
+        cd.to_reference * 1e4,
+        cd.from_reference * 1e4,
+        a.samples
+    );
+    Ok(())
+}
+
+fn held_out(a: HeldoutArgs) -> Result<()> {
+    let bytes = load(&a.model)?;
+    let model = model(&bytes);
+    let seq = input::read(&a.input)?;
+    let split = a.holdout.split();
+    let scores = heldout::held_out(&model, &seq, &split, a.pixels)
+        .with_context(|| format!("{} on {}", a.model.display(), a.input.input.display()))?;
+    let names: Vec<&str> = seq.classes().iter().map(|c| c.name.as_str()).collect();
+    println!(
+        "2D IoU on withheld slices ({} pixels along each region's longer side)",
+        a.pixels
+    );
+    println!("| | planes | mean | {} |", names.join(" | "));
+    println!("|---|---|---|{}", "---|".repeat(names.len()));
+    for (label, o, n) in [
+        ("spatial", &scores.spatial, scores.planes[0]),
+        ("temporal", &scores.temporal, scores.planes[1]),
+        ("spatio-temporal", &scores.spatio_temporal, scores.planes[2]),
+    ] {
+        let iou = o.iou();
+        let present: Vec<f64> = iou.iter().flatten().copied().collect();
+        let mean =
+            (!present.is_empty()).then(|| present.iter().sum::<f64>() / present.len() as f64);
+        let per: Vec<String> = iou.iter().map(|v| fmt(*v, 4)).collect();
+        println!("| {label} | {n} | {} | {} |", fmt(mean, 4), per.join(" | "));
+    }
+    Ok(())
+}
+
+fn split(a: SplitArgs) -> Result<()> {
+    let seq = input::read(&a.input)?;
+    let train = a
+        .holdout
+        .split()
+        .training(&seq)
+        .with_context(|| format!("{}", a.input.input.display()))?;
+    native::write(&train, &a.output)?;
+    let planes =
+        |s: &crate::data::Sequence| s.frames().iter().map(|f| f.planes.len()).sum::<usize>();
+    eprintln!(
+        "wrote {}: {} of {} frames, {} of {} planes",
+        a.output.display(),
+        train.frames().len(),
+        seq.frames().len(),
+        planes(&train),
+        planes(&seq)
+    );
+    Ok(())
+}
+
+fn volume(a: VolumeArgs) -> Result<()> {
+    let bytes = load(&a.model)?;
+    let model = model(&bytes);
+    let times = match &a.times {
+        Some(spec) => parse_times(spec)?,
+        None => {
+            let (t0, t1) = model.domain().time_range();
+            parse_times(&format!("{t0}:{t1}:20"))?
+        }
+    };
+    let curve = volume_curve(&model, &times, a.resolution)?;
+    curve.write_csv(&a.output)?;
+    let png = a.output.with_extension("png");
+    let title = format!("class volumes of {}", a.model.display());
+    curve.plot(&png, &title)?;
+    eprintln!("wrote {} and {}", a.output.display(), png.display());
+    for (c, name) in curve.classes.iter().enumerate() {
+        let v: Vec<f64> = curve.volumes.iter().map(|v| v[c]).collect();
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(l, h), &x| (l.min(x), h.max(x)));
+        println!(
+            "class {} {name:?}: volume {lo:.6} to {hi:.6} (world units³)",
+            c + 1
+        );
+    }
+    Ok(())
+}
