@@ -6,16 +6,15 @@ use crate::data::native;
 use crate::frame_range::FrameRange;
 use crate::labels::grid::parse_times;
 use crate::mesh::{self, Surfaces};
+use crate::metrics::benchmark::{Resolution, Scores, Truth};
 use crate::metrics::chamfer::{self, DEFAULT_SAMPLES};
 use crate::metrics::heldout::{self, Split, DEFAULT_PIXELS};
-use crate::metrics::iou::label_overlap;
 use crate::metrics::volume::volume_curve;
-use crate::metrics::{FrameTable, Frames};
+use crate::metrics::Frames;
 use crate::model_file::read_model_bytes;
 use crate::synth::{BenchmarkOptions, Shape};
 use anyhow::{bail, Context, Result};
 use dynaslice_core::Model;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `dynaslice eval`.
@@ -187,52 +186,16 @@ fn synthetic(a: SyntheticArgs) -> Result<()> {
     }
     let bench = BenchmarkOptions::default();
     let annotated_frames = a.annotated.indices(bench.timesteps);
-    let times: Vec<f64> = (0..bench.timesteps).map(|i| bench.time(i)).collect();
-    let annotated: Vec<bool> = (0..bench.timesteps)
-        .map(|i| annotated_frames.contains(&i))
-        .collect();
-    let classes: Vec<usize> = (0..names.len()).collect();
-    let truth = |c: usize, x: [f64; 3], t: f64| shape.sdf(c, x, t);
-    let options = mesh::Options {
-        resolution: a.mesh_resolution,
-        surfaces: Surfaces::Partition,
-        ..mesh::Options::default()
+    let resolution = Resolution {
+        iou: a.resolution,
+        mesh: a.mesh_resolution,
+        truth: a.truth_resolution,
+        samples: a.samples,
     };
-    // The benchmark's reference box is the domain [−1, 1]³ at every frame.
-    let diagonal = 2.0 * 3f64.sqrt();
-    let (mut iou, mut cd) = (Vec::new(), Vec::new());
-    for (f, &t) in times.iter().enumerate() {
-        iou.push(label_overlap(&model, &truth, ([-1.0; 3], [1.0; 3]), a.resolution, t).iou());
-        let predicted = mesh::extract(
-            &model,
-            model.domain().bounds(),
-            t as f32,
-            &classes,
-            &options,
-        )?;
-        let exact = chamfer::truth_meshes(shape, t, a.truth_resolution)?;
-        cd.push(
-            classes
-                .iter()
-                .map(|&c| {
-                    let seed = (f * names.len() + c) as u64;
-                    let p = chamfer::samples(&predicted.meshes[c], a.samples, 2 * seed);
-                    let q = chamfer::samples(&exact[c], a.samples, 2 * seed + 1);
-                    chamfer::chamfer(&p, &q, diagonal).map(|c| c.scaled())
-                })
-                .collect(),
-        );
-    }
-    let iou = FrameTable {
-        times: times.clone(),
-        annotated: annotated.clone(),
-        values: iou,
-    };
-    let cd = FrameTable {
-        times,
-        annotated,
-        values: cd,
-    };
+    let truth = Truth::new(shape, &annotated_frames, resolution)?;
+    let Scores { iou, cd } = truth
+        .score(&model)
+        .with_context(|| a.model.display().to_string())?;
     println!(
         "{} ({} classes), {} frames ({} annotated): 3D IoU on a {}³ grid over [-1, 1]³; \
          CD×10⁴ over {} samples per surface, unit-normalised by the domain diagonal 2√3",
@@ -264,23 +227,7 @@ fn synthetic(a: SyntheticArgs) -> Result<()> {
         );
     }
     if let Some(path) = &a.csv {
-        let mut s = String::from("frame,time,annotated");
-        for n in names {
-            let _ = write!(s, ",iou {n},cd1e4 {n}");
-        }
-        s.push('\n');
-        for f in 0..iou.times.len() {
-            let _ = write!(s, "{f},{},{}", iou.times[f], iou.annotated[f]);
-            for c in 0..names.len() {
-                let _ = write!(
-                    s,
-                    ",{},{}",
-                    fmt(iou.values[f][c], 6),
-                    fmt(cd.values[f][c], 6)
-                );
-            }
-            s.push('\n');
-        }
+        let s = Scores { iou, cd }.to_csv(names);
         std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }

@@ -1,37 +1,73 @@
-//! `dynaslice results`: reproduce the paper's tables and write them as markdown.
+//! `dynaslice results`: reproduce the paper's tables and write them as markdown
+//! (docs/results.md), rewritten after every run so a killed job keeps what it measured.
 
-use crate::experiments::synthetic::{self, Protocol, Scene, Variant};
+use crate::data::nifti::read_volume;
+use crate::data::reslice::{reslice, ResliceOptions};
+use crate::data::LabelNames;
+use crate::experiments::multiclass::{self, SharingRun};
+use crate::experiments::reference::{self, CaseRun};
+use crate::experiments::synthetic::{self, Run, Scene, Variant};
+use crate::experiments::Protocol;
+use crate::frame_range::FrameRange;
+use crate::metrics::benchmark::Resolution;
+use crate::metrics::heldout::Split;
 use crate::model_file::write_atomically;
-use crate::synth::Shape;
+use crate::synth::{slice_sequence, BenchmarkOptions, Shape};
 use crate::train::data_sampler::SampleCounts;
 use crate::train::trainer::TrainOptions;
-use anyhow::{Context, Result};
-use std::fmt::Write as _;
-use std::path::PathBuf;
+use anyhow::{anyhow, bail, Context, Result};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `dynaslice results`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Markdown output (a per-frame CSV and the trained models are written beside it).
+    /// Markdown output (the trained models are written beside it, in <name>.models/).
     #[arg(short, long, default_value = "docs/results.md")]
     output: PathBuf,
-    /// Training time per (shape, variant) in minutes, as a step count calibrated per shape at
-    /// the start (every variant then runs exactly those steps).
+    /// Tables: synthetic (Table 3), multiclass (Table 2), static (.csl against reference meshes).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "synthetic,multiclass,static"
+    )]
+    tables: Vec<String>,
+    /// Training time per model in minutes, as a step count calibrated per input at the start
+    /// (every model of a table then runs exactly those steps).
     #[arg(long, default_value_t = 5.0)]
     minutes: f64,
-    /// IoU grid resolution (cells per axis).
-    #[arg(long, default_value_t = 128)]
-    resolution: usize,
-    /// Shapes (blob, tube, torus, chambers).
+    /// Shapes of the synthetic table (blob, tube, torus, chambers).
     #[arg(
         long,
         value_delimiter = ',',
         default_value = "blob,tube,torus,chambers"
     )]
     shapes: Vec<Shape>,
-    /// Variants: siren (4D SIREN), orientation (+ orientation), full (DynaSlice).
+    /// Variants of the synthetic table: siren (4D SIREN), orientation (+ orientation), full.
     #[arg(long, value_delimiter = ',', default_value = "siren,orientation,full")]
     variants: Vec<String>,
+    /// Shared data folder with nifti/example_seg.nii.gz and csl/ (tables that need it are
+    /// skipped, with a message, when it is absent).
+    #[arg(long, default_value = "../shared/data")]
+    data: PathBuf,
+    /// Classes of the real multi-organ table: the largest labels of the segmentation.
+    #[arg(long, default_value_t = 5)]
+    organs: usize,
+    /// Cells per axis of the 3D IoU grids.
+    #[arg(long, default_value_t = 64)]
+    resolution: usize,
+    /// Lattice cells along the longest axis for the models' meshes.
+    #[arg(long, default_value_t = 96)]
+    mesh_resolution: u32,
+    /// Lattice cells per axis for the exact shapes' meshes.
+    #[arg(long, default_value_t = 192)]
+    truth_resolution: u32,
+    /// Area-uniform samples per surface for the Chamfer distance.
+    #[arg(long, default_value_t = crate::metrics::chamfer::DEFAULT_SAMPLES)]
+    cd_samples: usize,
+    /// Pixels along the longer side of each withheld plane (held-out 2D IoU).
+    #[arg(long, default_value_t = 128)]
+    pixels: usize,
     /// Widths of the sine layers.
     #[arg(long, value_delimiter = ',', default_value = "256,256,256,256")]
     widths: Vec<u32>,
@@ -47,12 +83,56 @@ pub struct Args {
 }
 
 fn variant(name: &str) -> Result<Variant> {
-    Ok(match name {
-        "siren" => Variant::Siren4d,
-        "orientation" => Variant::Orientation,
-        "full" => Variant::Full,
-        other => anyhow::bail!("unknown variant {other:?} (expected siren, orientation or full)"),
-    })
+    Variant::ALL
+        .into_iter()
+        .find(|v| v.key() == name)
+        .ok_or_else(|| anyhow!("unknown variant {name:?} (expected siren, orientation or full)"))
+}
+
+/// Everything measured so far, rendered as one document.
+struct Report {
+    command: String,
+    protocol: Protocol,
+    synthetic_resolution: Resolution,
+    static_resolution: reference::Resolution,
+    synthetic: Vec<Run>,
+    multiclass: Vec<(multiclass::Case, Vec<SharingRun>)>,
+    statics: Vec<CaseRun>,
+    skipped: Vec<String>,
+}
+
+impl Report {
+    fn markdown(&self) -> String {
+        let mut s = String::from("# Results\n\n");
+        s += &format!(
+            "Regenerate with `{}` (about 3 × 4 + 2 × 3 + 5 + 2 + 3 models of the given minutes \
+             each, plus scoring). Written by that command; every figure below is its output.\n\n",
+            self.command
+        );
+        for why in &self.skipped {
+            s += &format!("- skipped: {why}\n");
+        }
+        if !self.skipped.is_empty() {
+            s.push('\n');
+        }
+        if !self.synthetic.is_empty() {
+            s += &synthetic::markdown(&self.synthetic, &self.protocol, self.synthetic_resolution);
+        }
+        if !self.multiclass.is_empty() {
+            s += "## Table 2 idea: one shared multi-class model against independent models\n\n";
+            for (case, runs) in &self.multiclass {
+                s += &multiclass::markdown(case, runs, &self.protocol);
+            }
+        }
+        if !self.statics.is_empty() {
+            s += &reference::markdown(&self.statics, &self.protocol, self.static_resolution);
+        }
+        s
+    }
+
+    fn write(&self, path: &Path) -> Result<()> {
+        write_atomically(path, self.markdown().as_bytes())
+    }
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -61,9 +141,14 @@ pub fn run(a: Args) -> Result<()> {
         .iter()
         .map(|v| variant(v))
         .collect::<Result<Vec<_>>>()?;
+    for t in &a.tables {
+        if !["synthetic", "multiclass", "static"].contains(&t.as_str()) {
+            bail!("unknown table {t:?} (expected synthetic, multiclass or static)");
+        }
+    }
+    let wants = |t: &str| a.tables.iter().any(|x| x == t);
     let protocol = Protocol {
         minutes: a.minutes,
-        resolution: a.resolution,
         options: TrainOptions {
             widths: a.widths.clone(),
             threads: a.threads.max(1),
@@ -85,50 +170,165 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    let mut runs = Vec::new();
-    let mut csv = String::from("shape,variant,frame,annotated,mean_iou,class_iou\n");
     let models = a.output.with_extension("models");
     std::fs::create_dir_all(&models)
         .with_context(|| format!("cannot create {}", models.display()))?;
-    for &shape in &a.shapes {
-        let scene = Scene::new(shape)?;
-        let steps = scene.calibrate(&protocol)?;
-        for &v in &variants {
-            let run = scene.run(v, &protocol, steps, &mut |line| eprintln!("{line}"))?;
-            for (i, ((iou, annotated), classes)) in run
-                .frame_iou
-                .iter()
-                .zip(&run.annotated)
-                .zip(&run.frame_class_iou)
-                .enumerate()
-            {
-                let classes: Vec<String> = classes
-                    .iter()
-                    .map(|c| c.map_or("".into(), |v| format!("{v:.4}")))
-                    .collect();
-                writeln!(
-                    csv,
-                    "{},{},{i},{annotated},{iou},{}",
-                    shape.name(),
-                    v.name(),
-                    classes.join(";")
+    let save = |name: String, bytes: &[u8]| write_atomically(&models.join(name), bytes);
+    let mut report = Report {
+        command,
+        protocol: protocol.clone(),
+        synthetic_resolution: Resolution {
+            iou: a.resolution,
+            mesh: a.mesh_resolution,
+            truth: a.truth_resolution,
+            samples: a.cd_samples,
+        },
+        static_resolution: reference::Resolution {
+            mesh: a.mesh_resolution,
+            iou: a.resolution,
+            samples: a.cd_samples,
+        },
+        synthetic: Vec::new(),
+        multiclass: Vec::new(),
+        statics: Vec::new(),
+        skipped: Vec::new(),
+    };
+    if wants("synthetic") {
+        for &shape in &a.shapes {
+            let scene = Scene::new(shape, report.synthetic_resolution)?;
+            let steps = scene.calibrate(&protocol)?;
+            for &v in &variants {
+                eprintln!("{} / {}: {steps} steps", shape.name(), v.name());
+                let run = scene.run(v, &protocol, steps)?;
+                eprintln!("{}", run.summary());
+                save(
+                    format!("{}_{}.dsm", shape.name(), v.key()),
+                    &run.fitted.bytes,
                 )?;
+                report.synthetic.push(run);
+                report.write(&a.output)?;
             }
-            let file = models.join(format!(
-                "{}_{}.dsm",
-                shape.name(),
-                v.name().split_whitespace().last().unwrap_or("model")
-            ));
-            write_atomically(&file, &run.model)?;
-            runs.push(run);
-            // Rewrite after every run so a long job that is killed keeps what it measured.
-            write_atomically(
-                &a.output,
-                synthetic::markdown(&runs, &protocol, &command).as_bytes(),
-            )?;
-            write_atomically(&a.output.with_extension("frames.csv"), csv.as_bytes())?;
         }
     }
-    println!("{}", synthetic::markdown(&runs, &protocol, &command));
+    if wants("multiclass") {
+        let mut cases = vec![chambers_case(a.pixels)?];
+        match organs_case(&a.data, a.organs, a.pixels) {
+            Ok(case) => cases.push(case),
+            Err(e) => {
+                let why = format!("the real multi-organ case: {e:#}");
+                eprintln!("skipped {why}");
+                report.skipped.push(why);
+            }
+        }
+        for case in cases {
+            let steps = case.calibrate(&protocol)?;
+            report.multiclass.push((case, Vec::new()));
+            let i = report.multiclass.len() - 1;
+            for sharing in report.multiclass[i].0.sharings() {
+                let case = &report.multiclass[i].0;
+                eprintln!(
+                    "{} / {}: {steps} steps per model",
+                    case.name,
+                    sharing.name()
+                );
+                let run = case.run(sharing, &protocol, steps)?;
+                eprintln!("  {:.0} s", run.seconds);
+                report.multiclass[i].1.push(run);
+                report.write(&a.output)?;
+            }
+        }
+    }
+    if wants("static") {
+        let dir = a.data.join("csl");
+        for name in ["eight_15", "hand_ok", "balloondog"] {
+            let case = match reference::Case::read(&dir, name) {
+                Ok(case) => case,
+                Err(e) => {
+                    let why = format!("{name}: {e:#}");
+                    eprintln!("skipped {why}");
+                    report.skipped.push(why);
+                    continue;
+                }
+            };
+            let steps = case.calibrate(&protocol)?;
+            eprintln!("{name}: {steps} steps");
+            let run = case.run(&protocol, steps, report.static_resolution)?;
+            eprintln!(
+                "{name}: CD×10⁴ {:?}, IoU {:?} in {:.0} s",
+                run.cd, run.iou, run.fitted.seconds
+            );
+            save(format!("{name}.dsm"), &run.fitted.bytes)?;
+            report.statics.push(run);
+            report.write(&a.output)?;
+        }
+    }
+    report.write(&a.output)?;
+    println!("{}", report.markdown());
     Ok(())
+}
+
+/// The benchmark's chambers (10 annotated frames of 15 + 15 planes), withholding every 3rd
+/// frame from frame 1 and every 4th plane from plane 3.
+fn chambers_case(pixels: usize) -> Result<multiclass::Case> {
+    let seq = slice_sequence(Shape::Chambers, &BenchmarkOptions::default())?;
+    Ok(multiclass::Case {
+        name: "Synthetic chambers".into(),
+        source: "`dynaslice synth --shape chambers`, its 10 annotated frames".into(),
+        seq,
+        split: Split {
+            frames: Some(FrameRange {
+                start: 1,
+                end: None,
+                step: 3,
+            }),
+            planes: Some(FrameRange {
+                start: 3,
+                end: None,
+                step: 4,
+            }),
+        },
+        pixels,
+    })
+}
+
+/// The TotalSegmentator volume's `organs` largest labels, resliced by the paper's protocol
+/// (20 rotated planes, every 2nd axial slice), withholding every 4th plane from plane 3.
+fn organs_case(data: &Path, organs: usize, pixels: usize) -> Result<multiclass::Case> {
+    let path = data.join("nifti/example_seg.nii.gz");
+    if !path.exists() {
+        bail!("{} is absent", path.display());
+    }
+    let volume = read_volume(&path)?;
+    let mut counts: HashMap<i32, usize> = HashMap::new();
+    for &l in volume.labels.iter().filter(|&&l| l != 0) {
+        *counts.entry(l).or_default() += 1;
+    }
+    let mut by_size: Vec<(i32, usize)> = counts.into_iter().collect();
+    by_size.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let mut labels: Vec<i32> = by_size.iter().take(organs.max(1)).map(|l| l.0).collect();
+    labels.sort_unstable();
+    let options = ResliceOptions {
+        labels: Some(labels.clone()),
+        ..ResliceOptions::default()
+    };
+    let seq = reslice(&volume, &options, &LabelNames::default()).map_err(|e| e.in_file(&path))?;
+    Ok(multiclass::Case {
+        name: "TotalSegmentator CT segmentation (real, static)".into(),
+        source: format!(
+            "`{}`, its {} largest labels ({labels:?}) resliced by the paper's protocol (20 \
+             rotated + every 2nd axial plane)",
+            path.display(),
+            labels.len()
+        ),
+        seq,
+        split: Split {
+            frames: None,
+            planes: Some(FrameRange {
+                start: 3,
+                end: None,
+                step: 4,
+            }),
+        },
+        pixels,
+    })
 }

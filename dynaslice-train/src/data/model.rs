@@ -249,6 +249,44 @@ impl Sequence {
         b
     }
 
+    /// The sequence of class `class` alone (its name and label kept, as class 0): planes that
+    /// do not annotate it and frames left without planes are dropped. For training an
+    /// independent per-class model.
+    pub fn only_class(&self, class: usize) -> Result<Sequence> {
+        let info = self.classes.get(class).cloned().ok_or_else(|| {
+            DataError::new(ErrorKind::Empty(format!(
+                "there is no class {} among {}",
+                class + 1,
+                self.classes.len()
+            )))
+        })?;
+        let frames = self
+            .frames
+            .iter()
+            .filter_map(|f| {
+                let planes: Vec<Plane> = f
+                    .planes
+                    .iter()
+                    .filter_map(|p| {
+                        let a = p.annotation(class)?;
+                        Some(Plane {
+                            annotations: vec![Annotation {
+                                class: 0,
+                                polygons: a.polygons.clone(),
+                            }],
+                            ..p.clone()
+                        })
+                    })
+                    .collect();
+                (!planes.is_empty()).then_some(Frame {
+                    time: f.time,
+                    planes,
+                })
+            })
+            .collect();
+        Sequence::new(vec![info], frames)
+    }
+
     /// The index of the class with source label `label`.
     pub fn class_by_label(&self, label: i32) -> Option<usize> {
         self.classes.iter().position(|c| c.label == label)

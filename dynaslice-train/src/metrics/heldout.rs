@@ -114,7 +114,8 @@ pub struct HeldOut {
 }
 
 /// Scores `model` on the planes of `seq` (the full input) that `split` withholds, rasterising
-/// each plane's region of interest with `pixels` pixels along its longer side.
+/// each plane's region of interest with `pixels` pixels along its longer side. The model's
+/// classes must be the input's.
 pub fn held_out(model: &Model, seq: &Sequence, split: &Split, pixels: usize) -> Result<HeldOut> {
     let k = seq.classes().len();
     if model.num_classes() != k {
@@ -123,7 +124,42 @@ pub fn held_out(model: &Model, seq: &Sequence, split: &Split, pixels: usize) -> 
             model.num_classes()
         );
     }
-    for (c, (mine, theirs)) in model.classes().zip(seq.classes()).enumerate() {
+    let channels: Vec<usize> = (0..k).collect();
+    score(model, seq, &channels, split, pixels)
+}
+
+/// [`held_out`] for a one-class model of class `class` of `seq` (an independent per-class
+/// model, Table 2): its inside region (label 1) against that class's annotations.
+pub fn held_out_class(
+    model: &Model,
+    seq: &Sequence,
+    class: usize,
+    split: &Split,
+    pixels: usize,
+) -> Result<HeldOut> {
+    ensure!(
+        model.num_classes() == 1,
+        "a per-class model has one class, this one {}",
+        model.num_classes()
+    );
+    ensure!(
+        class < seq.classes().len(),
+        "the input has no class {}",
+        class + 1
+    );
+    score(model, seq, &[class], split, pixels)
+}
+
+/// Scores model channel i against class `channels[i]` of `seq`.
+fn score(
+    model: &Model,
+    seq: &Sequence,
+    channels: &[usize],
+    split: &Split,
+    pixels: usize,
+) -> Result<HeldOut> {
+    for (mine, &c) in model.classes().zip(channels) {
+        let theirs = &seq.classes()[c];
         ensure!(
             mine.label == theirs.label,
             "class {} is label {} in the model but {} in the input",
@@ -132,6 +168,7 @@ pub fn held_out(model: &Model, seq: &Sequence, split: &Split, pixels: usize) -> 
             theirs.label
         );
     }
+    let k = channels.len();
     let mut out = HeldOut {
         spatial: Overlap::zeros(k),
         temporal: Overlap::zeros(k),
@@ -147,23 +184,24 @@ pub fn held_out(model: &Model, seq: &Sequence, split: &Split, pixels: usize) -> 
                 Category::Temporal => (&mut out.temporal, 1),
                 Category::SpatioTemporal => (&mut out.spatio_temporal, 2),
             };
-            let o = plane_overlap(model, plane, frame.time, k, pixels);
-            *sum += o;
+            *sum += plane_overlap(model, plane, frame.time, channels, pixels);
             out.planes[i] += 1;
         }
     }
     Ok(out)
 }
 
-/// 2D IoU counts of one plane at time `t`: every annotated class against the model's labels,
-/// at the centres of a pixel grid over the region of interest.
+/// 2D IoU counts of one plane at time `t`: model class i+1 against the annotations of class
+/// `channels[i]` where the plane annotates it, at the centres of a pixel grid over the region
+/// of interest.
 pub fn plane_overlap(
     model: &Model,
     plane: &Plane,
     t: f64,
-    classes: usize,
+    channels: &[usize],
     pixels: usize,
 ) -> Overlap {
+    let k = channels.len();
     let roi = plane.roi;
     let size = [roi.max[0] - roi.min[0], roi.max[1] - roi.min[1]];
     let pixel = size[0].max(size[1]) / pixels.max(1) as f64;
@@ -174,10 +212,11 @@ pub fn plane_overlap(
             roi.min[1] + (j as f64 + 0.5) * size[1] / ny as f64,
         ]
     };
-    // Per class: None where the plane does not annotate it, else its inside test (an absent
-    // class, with no polygons, is outside everywhere).
-    let truth: Vec<Option<Option<PolygonSdf>>> = (0..classes)
-        .map(|c| {
+    // Per channel: None where the plane does not annotate its class, else the class's inside
+    // test (an absent class, with no polygons, is outside everywhere).
+    let truth: Vec<Option<Option<PolygonSdf>>> = channels
+        .iter()
+        .map(|&c| {
             plane
                 .annotation(c)
                 .map(|a| PolygonSdf::new(&a.polygons, Some((roi.min, roi.max))))
@@ -194,21 +233,22 @@ pub fn plane_overlap(
             model
                 .label_batch(scratch, &points, &times, &mut labels)
                 .expect("buffers are sized to the row");
-            let mut o = Overlap::zeros(classes);
+            let mut o = Overlap::zeros(k);
             for (i, &predicted) in labels.iter().enumerate() {
                 let p = centre(i, j);
                 for (c, sdf) in truth.iter().enumerate() {
                     let Some(sdf) = sdf else { continue };
-                    let class = c as u32 + 1;
-                    let inside = sdf.as_ref().is_some_and(|s| s.distance(p) < 0.0);
-                    let (a, b) = (predicted == class, inside);
+                    let (a, b) = (
+                        predicted == c as u32 + 1,
+                        sdf.as_ref().is_some_and(|s| s.distance(p) < 0.0),
+                    );
                     o.intersection[c] += (a && b) as u64;
                     o.union[c] += (a || b) as u64;
                 }
             }
             o
         })
-        .reduce(|| Overlap::zeros(classes), |a, b| a + b)
+        .reduce(|| Overlap::zeros(k), |a, b| a + b)
 }
 
 #[cfg(test)]
@@ -309,7 +349,7 @@ mod tests {
         // The pixel grid covers the ROI: 30 mm at 400 px.
         let seq = sequence(&sphere, 1.0);
         let plane = &seq.frames()[0].planes[1];
-        let o = plane_overlap(&model, plane, 0.0, 1, 400);
+        let o = plane_overlap(&model, plane, 0.0, &[0], 400);
         let r = sphere.world_radius(0.0);
         let z = plane.origin[2] - sphere.world_centre()[2];
         let disc = PI * (r * r - z * z) / (30.0 / 400.0f64).powi(2);

@@ -2,12 +2,16 @@
 //!
 //! - [`iou`]: 3D intersection over union of the Eq. 11 label partition on a grid.
 //! - [`chamfer`]: Chamfer distance between area-uniform surface samples, unit-normalised.
+//! - [`benchmark`]: both against the synthetic benchmark's exact shapes at every frame.
+//! - [`inside`]: 3D IoU against a reference triangle mesh (inside cells by ray parity).
 //! - [`heldout`]: 2D IoU on withheld planes and frames (spatial, temporal, spatio-temporal).
 //! - [`volume`]: each class's volume over time.
 //! - [`spheres`]: a hand-built model of growing spheres, a closed-form ground truth for tests.
 
+pub mod benchmark;
 pub mod chamfer;
 pub mod heldout;
+pub mod inside;
 pub mod iou;
 pub mod spheres;
 pub mod volume;

@@ -91,8 +91,15 @@ impl Sphere {
     }
 }
 
-/// The model file of `spheres`, one class each, named and labelled by `classes`.
+/// The model file of `spheres`, one class each, named and labelled by `classes`, in
+/// [`SPHERES_DOMAIN`] (the `world_*` methods of [`Sphere`] assume it).
 pub fn model(spheres: &[Sphere], classes: &[(&str, i32)]) -> Vec<u8> {
+    model_in(SPHERES_DOMAIN, spheres, classes)
+}
+
+/// [`model`] in another world domain (e.g. the identity map, where normalised sphere
+/// coordinates are world coordinates).
+pub fn model_in(domain: Domain, spheres: &[Sphere], classes: &[(&str, i32)]) -> Vec<u8> {
     assert_eq!(spheres.len(), classes.len(), "one (name, label) per sphere");
     let mut params = Vec::new();
     // First layer Wᵀ: rows x, y, z, t of the 7 units' frequencies, then the 7 phases.
@@ -122,7 +129,7 @@ pub fn model(spheres: &[Sphere], classes: &[(&str, i32)]) -> Vec<u8> {
     ModelWriter {
         widths: vec![7],
         classes: classes.iter().map(|(n, l)| (n.to_string(), *l)).collect(),
-        domain: SPHERES_DOMAIN,
+        domain,
         omega_t_max: 1.0,
         params: params.into_iter().map(|v| v as f32).collect(),
         metadata: String::new(),

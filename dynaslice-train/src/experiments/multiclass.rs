@@ -1,0 +1,279 @@
+//! Table 2's idea on multi-class data: K independent one-class models against one shared
+//! K-class model (Eq. 9), and the shared model without temporal control (Eq. 4), all trained
+//! on the same held-out split of the input and scored on the withheld slices by 2D IoU
+//! ([`crate::metrics::heldout`]): spatial (seen frames, withheld planes), temporal (withheld
+//! frames, seen positions) and spatio-temporal (both).
+//!
+//! Every model trains for the same number of steps, calibrated on the shared model, so the
+//! independent models together cost about K times the steps of the shared one. Each one-class
+//! model sees exactly the planes that annotate its class, as the shared model does.
+
+use super::{calibrate, cell, fit, Protocol};
+use crate::data::Sequence;
+use crate::metrics::heldout::{held_out, held_out_class, HeldOut, Split};
+use crate::metrics::iou::Overlap;
+use anyhow::{Context, Result};
+use std::fmt::Write as _;
+
+/// How the classes share a network.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sharing {
+    /// One model per class.
+    Independent,
+    /// One K-class model (DynaSlice).
+    Shared,
+    /// One K-class model, no temporal control.
+    SharedNoTemporal,
+}
+
+impl Sharing {
+    /// Row label.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sharing::Independent => "independent per-class models",
+            Sharing::Shared => "one shared model (DynaSlice)",
+            Sharing::SharedNoTemporal => "shared, no temporal control",
+        }
+    }
+}
+
+/// One scored way of sharing.
+pub struct SharingRun {
+    /// The way.
+    pub sharing: Sharing,
+    /// Per class: IoU on (spatial, temporal, spatio-temporal) withheld slices.
+    pub class_iou: Vec<[Option<f64>; 3]>,
+    /// Training wall time of all its models together.
+    pub seconds: f64,
+    /// Steps per model.
+    pub steps: u64,
+}
+
+/// A multi-class input and the split it is scored on.
+pub struct Case {
+    /// Name in the table.
+    pub name: String,
+    /// How the input was made (for the table's caption).
+    pub source: String,
+    /// The full input.
+    pub seq: Sequence,
+    /// What is withheld.
+    pub split: Split,
+    /// Pixels along the longer side of each withheld plane's region of interest.
+    pub pixels: usize,
+}
+
+/// Every category's per-class IoU of one [`HeldOut`], as rows of `[spatial, temporal, st]`.
+fn per_class(h: &HeldOut) -> Vec<[Option<f64>; 3]> {
+    let [s, t, st] = [&h.spatial, &h.temporal, &h.spatio_temporal].map(Overlap::iou);
+    (0..s.len()).map(|c| [s[c], t[c], st[c]]).collect()
+}
+
+impl Case {
+    /// Whether the input has more than one frame (else temporal control changes nothing: the
+    /// network's time input is constant).
+    pub fn is_dynamic(&self) -> bool {
+        self.seq.frames().len() > 1
+    }
+
+    /// The ways worth comparing on this input.
+    pub fn sharings(&self) -> Vec<Sharing> {
+        let mut v = vec![Sharing::Independent, Sharing::Shared];
+        if self.is_dynamic() {
+            v.push(Sharing::SharedNoTemporal);
+        }
+        v
+    }
+
+    /// Steps of the shared model that take `p.minutes`.
+    pub fn calibrate(&self, p: &Protocol) -> Result<u64> {
+        let train = self.split.training(&self.seq)?;
+        calibrate(
+            &train,
+            &p.options(&train, 1, true, true),
+            p.counts,
+            p.minutes,
+        )
+    }
+
+    /// Trains and scores one way of sharing, `steps` steps per model.
+    pub fn run(&self, sharing: Sharing, p: &Protocol, steps: u64) -> Result<SharingRun> {
+        let train = self.split.training(&self.seq)?;
+        let (class_iou, seconds) = match sharing {
+            Sharing::Independent => {
+                let mut rows = Vec::new();
+                let mut seconds = 0.0;
+                for c in 0..self.seq.classes().len() {
+                    let one = train
+                        .only_class(c)
+                        .with_context(|| format!("{}: class {}", self.name, c + 1))?;
+                    let fitted = fit(&one, &p.options(&one, steps, true, true), p.counts)?;
+                    seconds += fitted.seconds;
+                    let h =
+                        held_out_class(&fitted.model(), &self.seq, c, &self.split, self.pixels)?;
+                    rows.push(per_class(&h)[0]);
+                }
+                (rows, seconds)
+            }
+            Sharing::Shared | Sharing::SharedNoTemporal => {
+                let control = sharing == Sharing::Shared;
+                let fitted = fit(&train, &p.options(&train, steps, control, true), p.counts)?;
+                let h = held_out(&fitted.model(), &self.seq, &self.split, self.pixels)?;
+                (per_class(&h), fitted.seconds)
+            }
+        };
+        Ok(SharingRun {
+            sharing,
+            class_iou,
+            seconds,
+            steps,
+        })
+    }
+}
+
+fn mean(v: impl Iterator<Item = Option<f64>>) -> Option<f64> {
+    let v: Vec<f64> = v.flatten().collect();
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+/// The markdown of one case's runs.
+pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
+    let mut s = String::new();
+    let k = case.seq.classes().len();
+    let planes: usize = case.seq.frames().iter().map(|f| f.planes.len()).sum();
+    let _ = writeln!(s, "### {}\n", case.name);
+    let _ = writeln!(
+        s,
+        "{} ({k} classes, {} frames, {planes} planes). Withheld: frames {}, planes {} (within \
+         each frame); 2D IoU of the Eq. 11 labels on the withheld slices at {} pixels along each \
+         region's longer side. Every model trained {} steps ({} min calibrated on the shared \
+         model, {} threads).\n",
+        case.source,
+        case.seq.frames().len(),
+        case.split.frames.map_or("none".into(), |r| r.to_string()),
+        case.split.planes.map_or("none".into(), |r| r.to_string()),
+        case.pixels,
+        runs.first().map_or(0, |r| r.steps),
+        p.minutes,
+        p.options.threads,
+    );
+    let dynamic = case.is_dynamic();
+    let categories: &[(usize, &str)] = if dynamic {
+        &[(0, "spatial"), (1, "temporal"), (2, "spatio-temporal")]
+    } else {
+        &[(0, "spatial")]
+    };
+    let _ = write!(s, "| model |");
+    for (_, c) in categories {
+        let _ = write!(s, " {c} IoU |");
+    }
+    let _ = writeln!(s, " train time | per class |");
+    let _ = writeln!(s, "|---|{}---|---|", "---|".repeat(categories.len()));
+    for r in runs {
+        let _ = write!(s, "| {} |", r.sharing.name());
+        for &(i, _) in categories {
+            let _ = write!(s, " {} |", cell(mean(r.class_iou.iter().map(|c| c[i])), 3));
+        }
+        let _ = writeln!(s, " {:.0} s | {:.1} s |", r.seconds, r.seconds / k as f64);
+    }
+    let _ = writeln!(s, "\nPer class, spatial IoU:\n");
+    let _ = write!(s, "| model |");
+    for c in case.seq.classes() {
+        let _ = write!(s, " {} ({}) |", c.name, c.label);
+    }
+    let _ = writeln!(s, "\n|---|{}", "---|".repeat(k));
+    for r in runs {
+        let _ = write!(s, "| {} |", r.sharing.name());
+        for c in &r.class_iou {
+            let _ = write!(s, " {} |", cell(c[0], 3));
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(s);
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::{slice_sequence, BenchmarkOptions, Shape};
+    use crate::train::data_sampler::SampleCounts;
+    use crate::train::trainer::TrainOptions;
+
+    fn case() -> Case {
+        let bench = BenchmarkOptions {
+            timesteps: 9,
+            train_every: 2,
+            planes: Some((3, 3)),
+            plane_resolution: 48,
+            volume_resolution: 8,
+        };
+        let seq = slice_sequence(Shape::Chambers, &bench).unwrap();
+        Case {
+            name: "tiny chambers".into(),
+            source: "test".into(),
+            seq,
+            split: Split {
+                frames: Some("1::2".parse().unwrap()),
+                planes: Some("2::3".parse().unwrap()),
+            },
+            pixels: 24,
+        }
+    }
+
+    /// A class on its own keeps its name, label and polygons on every plane that annotates it.
+    #[test]
+    fn one_class_of_a_sequence() {
+        let c = case();
+        let one = c.seq.only_class(1).unwrap();
+        assert_eq!(one.classes(), &c.seq.classes()[1..2]);
+        let planes = |s: &Sequence| s.frames().iter().flat_map(|f| &f.planes).count();
+        let annotating = c
+            .seq
+            .frames()
+            .iter()
+            .flat_map(|f| &f.planes)
+            .filter(|p| p.annotation(1).is_some())
+            .count();
+        assert_eq!(planes(&one), annotating);
+        let (a, b) = (&c.seq.frames()[0].planes[0], &one.frames()[0].planes[0]);
+        assert_eq!(b.annotations.len(), 1);
+        assert_eq!(b.annotations[0].class, 0);
+        assert_eq!(b.annotations[0].polygons, a.annotation(1).unwrap().polygons);
+        assert!(c.seq.only_class(3).is_err());
+    }
+
+    /// Every way of sharing trains and scores every class in every category; the independent
+    /// models are one per class and cost their steps each.
+    #[test]
+    fn every_sharing_scores_every_class() {
+        let c = case();
+        let p = Protocol {
+            minutes: 0.0,
+            options: TrainOptions {
+                widths: vec![16, 16],
+                threads: 1,
+                ..TrainOptions::default()
+            },
+            counts: SampleCounts {
+                contour_per_class: 64,
+                plane_per_class: 64,
+                space: 64,
+            },
+            temporal_factor: 1.0,
+        };
+        assert_eq!(c.sharings().len(), 3);
+        for sharing in c.sharings() {
+            let r = c.run(sharing, &p, 3).unwrap();
+            assert_eq!(r.class_iou.len(), 3, "{sharing:?}");
+            for (k, row) in r.class_iou.iter().enumerate() {
+                for v in row {
+                    let v = v.unwrap_or_else(|| panic!("{sharing:?} class {k}: undefined"));
+                    assert!((0.0..=1.0).contains(&v), "{sharing:?} class {k}: {v}");
+                }
+            }
+        }
+        let md = markdown(&c, &[c.run(Sharing::Shared, &p, 2).unwrap()], &p);
+        assert!(md.contains("| one shared model (DynaSlice) |"), "{md}");
+    }
+}
