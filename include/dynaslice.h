@@ -192,10 +192,11 @@ int ds_eval(const DsModel *model, const float *xyz, float t, float *sdf, size_t 
 
 /**
  * Like `ds_eval`, and also stores the exact spatial gradients (world units): `grad` holds
- * `3 * sdf_len` floats, and row k-1 (`grad[3(k-1)..3k]`) receives ∇ₓf^k for k in 1..=K.
+ * `3 * K` floats (K = `ds_num_classes`), and row k-1 (`grad[3(k-1)..3k]`) receives ∇ₓf^k for k
+ * in 1..=K.
  *
  * # Safety
- * As `ds_eval`, and `grad` NULL or `3 * sdf_len` writable floats not overlapping `sdf`.
+ * As `ds_eval`, and `grad` NULL or `3 * K` writable floats not overlapping `sdf`.
  */
 int ds_eval_grad(const DsModel *model,
                  const float *xyz,

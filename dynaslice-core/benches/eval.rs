@@ -249,6 +249,8 @@ fn main() {
     peaks.extend(sgemm(&mut group, 64, 256, 256));
     group.finish();
 
+    let sine = sine_against_libm(&mut c);
+
     let mut rows = Vec::new();
     // The paper's size: width 256, 3 hidden 256×256 layers (≈ 200K parameters).
     let paper: &[u32] = &[256; 4];
@@ -300,4 +302,67 @@ fn main() {
         }
     }
     c.final_summary();
+    sine.print();
+}
+
+/// Sines per iteration of the sine benchmarks: a layer's pre-activations for 256 points.
+const SINES: usize = 256 * 256;
+
+/// The polynomial sine of `dynaslice_core::sine` against libm's scalar `sinf`, on SIREN-range
+/// arguments (|x| ≤ 100): speed of both and the polynomial's largest error against f64 `sin`.
+struct SineReport {
+    polynomial: Option<Times>,
+    libm: Option<Times>,
+    max_error: f64,
+    libm_max_error: f64,
+}
+
+impl SineReport {
+    fn print(&self) {
+        let (Some(p), Some(l)) = (self.polynomial, self.libm) else {
+            return;
+        };
+        let rate = |t: f64| SINES as f64 / t * 1e-9;
+        println!(
+            "sine: polynomial {:.2} G/s (median), libm sinf {:.2} G/s: {:.1}x faster; max |error| \
+             on |x| <= 100 against f64 sin: polynomial {:.1e}, sinf {:.1e}",
+            rate(p.median),
+            rate(l.median),
+            l.median / p.median,
+            self.max_error,
+            self.libm_max_error
+        );
+    }
+}
+
+fn sine_against_libm(c: &mut Criterion) -> SineReport {
+    let xs: Vec<f32> = (0..SINES)
+        .map(|i| -100.0 + 200.0 * i as f32 / SINES as f32)
+        .collect();
+    let error = |f: &dyn Fn(f32) -> f32| {
+        xs.iter()
+            .map(|&x| (f64::from(f(x)) - libm::sin(f64::from(x))).abs())
+            .fold(0.0, f64::max)
+    };
+    let max_error = error(&dynaslice_core::sine::sin);
+    let libm_max_error = error(&libm::sinf);
+    let mut group = c.benchmark_group("sine");
+    let mut buf = xs.clone();
+    let polynomial = measure(&mut group, "polynomial", SINES, || {
+        buf.copy_from_slice(&xs);
+        dynaslice_core::sine::sin_in_place(black_box(&mut buf));
+    });
+    let libm = measure(&mut group, "libm_sinf", SINES, || {
+        buf.copy_from_slice(&xs);
+        for v in black_box(&mut buf).iter_mut() {
+            *v = libm::sinf(*v);
+        }
+    });
+    group.finish();
+    SineReport {
+        polynomial,
+        libm,
+        max_error,
+        libm_max_error,
+    }
 }

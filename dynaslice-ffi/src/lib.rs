@@ -519,6 +519,9 @@ pub unsafe extern "C" fn ds_time_range(
     guard("ds_time_range", || {
         // SAFETY: per this function's contract.
         let model = unsafe { model_ref(model) }?;
+        // NULL before overlap: two NULL outputs are missing, not overlapping.
+        check_array(t_min, 1, "t_min")?;
+        check_array(t_max, 1, "t_max")?;
         disjoint(&[span("t_min", t_min, 1), span("t_max", t_max, 1)])?;
         let (lo, hi) = model.model().domain().time_range();
         // SAFETY: per this function's contract; disjoint checked above.
@@ -543,6 +546,8 @@ pub unsafe extern "C" fn ds_bounds(
     guard("ds_bounds", || {
         // SAFETY: per this function's contract.
         let model = unsafe { model_ref(model) }?;
+        check_array(min_xyz, 3, "min_xyz")?;
+        check_array(max_xyz, 3, "max_xyz")?;
         disjoint(&[span("min_xyz", min_xyz, 3), span("max_xyz", max_xyz, 3)])?;
         let (lo, hi) = model.model().domain().bounds();
         // SAFETY: per this function's contract; disjoint checked above.
@@ -597,10 +602,11 @@ pub unsafe extern "C" fn ds_eval(
 }
 
 /// Like `ds_eval`, and also stores the exact spatial gradients (world units): `grad` holds
-/// `3 * sdf_len` floats, and row k-1 (`grad[3(k-1)..3k]`) receives ∇ₓf^k for k in 1..=K.
+/// `3 * K` floats (K = `ds_num_classes`), and row k-1 (`grad[3(k-1)..3k]`) receives ∇ₓf^k for k
+/// in 1..=K.
 ///
 /// # Safety
-/// As `ds_eval`, and `grad` NULL or `3 * sdf_len` writable floats not overlapping `sdf`.
+/// As `ds_eval`, and `grad` NULL or `3 * K` writable floats not overlapping `sdf`.
 #[no_mangle]
 pub unsafe extern "C" fn ds_eval_grad(
     model: *const DsModel,
@@ -614,9 +620,8 @@ pub unsafe extern "C" fn ds_eval_grad(
         // SAFETY: per this function's contract.
         let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
         let k = check_sdf_len(model, sdf_len)?;
-        let grad_len = sdf_len
-            .checked_mul(3)
-            .ok_or_else(|| Failure::new(DS_E_INVALID_ARGUMENT, "sdf_len * 3 overflows"))?;
+        // K ≤ format::MAX_CLASSES, so 3K cannot overflow.
+        let grad_len = 3 * k;
         check_array(sdf, sdf_len, "sdf")?;
         check_array(grad, grad_len, "grad")?;
         disjoint(&[span("sdf", sdf, sdf_len), span("grad", grad, grad_len)])?;
@@ -631,7 +636,7 @@ pub unsafe extern "C" fn ds_eval_grad(
         model
             .eval_grad(x, t, &mut f[..k], &mut rows[..k])
             .map_err(Failure::model)?;
-        g[..3 * k].copy_from_slice(rows[..k].as_flattened());
+        g.copy_from_slice(rows[..k].as_flattened());
         Ok(DS_OK)
     })
 }
@@ -656,9 +661,8 @@ pub unsafe extern "C" fn ds_eval_jacobian(
         // SAFETY: per this function's contract.
         let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
         let k = check_sdf_len(model, sdf_len)?;
-        let grad_len = sdf_len
-            .checked_mul(3)
-            .ok_or_else(|| Failure::new(DS_E_INVALID_ARGUMENT, "sdf_len * 3 overflows"))?;
+        // K ≤ format::MAX_CLASSES, so 3K cannot overflow.
+        let grad_len = 3 * k;
         check_array(sdf, sdf_len, "sdf")?;
         check_array(grad, grad_len, "grad")?;
         check_array(dfdt, sdf_len, "dfdt")?;
@@ -679,7 +683,7 @@ pub unsafe extern "C" fn ds_eval_jacobian(
         model
             .eval_jacobian(x, t, &mut f[..k], &mut rows[..k], &mut d[..k])
             .map_err(Failure::model)?;
-        g[..3 * k].copy_from_slice(rows[..k].as_flattened());
+        g.copy_from_slice(rows[..k].as_flattened());
         Ok(DS_OK)
     })
 }

@@ -51,13 +51,20 @@ fn scratch_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// True when `tool` runs; otherwise prints why the caller skips.
+/// True when `tool` runs; otherwise prints why the caller skips (or fails, under
+/// `DYNASLICE_REQUIRE_HOSTS`).
 fn have(tool: &str, test: &str) -> bool {
     let ok = Command::new(tool)
         .arg("--version")
         .output()
         .is_ok_and(|o| o.status.success());
     if !ok {
+        // CI installs every tool and sets DYNASLICE_REQUIRE_HOSTS, so a skip there is a failure
+        // (a printed notice alone would be swallowed by the test harness).
+        assert!(
+            std::env::var_os("DYNASLICE_REQUIRE_HOSTS").is_none(),
+            "{test}: `{tool}` is not installed but DYNASLICE_REQUIRE_HOSTS is set"
+        );
         println!("SKIPPED {test}: `{tool}` is not installed");
     }
     ok

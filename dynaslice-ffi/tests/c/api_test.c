@@ -205,6 +205,7 @@ static void test_metadata(const DsModel *m) {
     CHECK_RC(ds_time_range(m, &t0, NULL), DS_E_NULL_POINTER);
     CHECK_RC(ds_time_range(NULL, &t0, &t1), DS_E_NULL_POINTER);
     CHECK_RC(ds_time_range(m, &t0, &t0), DS_E_INVALID_ARGUMENT);
+    CHECK_RC(ds_time_range(m, NULL, NULL), DS_E_NULL_POINTER); /* missing, not overlapping */
     CHECK_RC(ds_bounds(m, lo, hi), DS_OK);
     for (int d = 0; d < 3; d++) {
         CHECK(same_bits(lo[d], REF_BOUNDS[d]));
@@ -213,6 +214,7 @@ static void test_metadata(const DsModel *m) {
     CHECK_RC(ds_bounds(m, NULL, hi), DS_E_NULL_POINTER);
     CHECK_RC(ds_bounds(m, lo, NULL), DS_E_NULL_POINTER);
     CHECK_RC(ds_bounds(NULL, lo, hi), DS_E_NULL_POINTER);
+    CHECK_RC(ds_bounds(m, NULL, NULL), DS_E_NULL_POINTER);
 }
 
 static void test_points(const DsModel *m) {
@@ -230,6 +232,10 @@ static void test_points(const DsModel *m) {
         for (int k = 0; k < REF_K; k++) CHECK(same_bits(f[k], REF_F[i][k]));
         for (int j = 0; j < 3 * REF_K; j++) CHECK(same_bits(g[j], REF_GRAD[i][j]));
         CHECK(g[3 * REF_K] == 42.0f);
+        /* grad holds 3K floats whatever sdf_len is (valgrind watches the bound). */
+        float g_exact[3 * REF_K];
+        CHECK_RC(ds_eval_grad(m, x, t, f, g_exact, REF_K + 1), DS_OK);
+        for (int j = 0; j < 3 * REF_K; j++) CHECK(same_bits(g_exact[j], REF_GRAD[i][j]));
         CHECK_RC(ds_eval_jacobian(m, x, t, f, g, d, REF_K), DS_OK);
         for (int k = 0; k < REF_K; k++) {
             CHECK(same_bits(f[k], REF_F[i][k]));

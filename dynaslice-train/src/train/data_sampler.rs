@@ -75,12 +75,14 @@ pub struct SampleCounts {
 }
 
 impl Default for SampleCounts {
-    /// The paper-scale batch: 4096 contour and 4096 plane samples per class, 4096 space-time.
+    /// 1024 contour and 1024 plane samples per class, 1024 space-time: in the measured sweep of
+    /// docs/training.md, four times the steps of the 4096-sample batch beat its larger batches
+    /// at equal wall time (chambers IoU 0.975 against 0.866 in 1.5 min).
     fn default() -> Self {
         SampleCounts {
-            contour_per_class: 4096,
-            plane_per_class: 4096,
-            space: 4096,
+            contour_per_class: 1024,
+            plane_per_class: 1024,
+            space: 1024,
         }
     }
 }
