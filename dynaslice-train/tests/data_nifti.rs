@@ -305,3 +305,121 @@ fn reads_the_shared_totalsegmentator_volume() {
     // 20 rotated, 15 axial (every second of 30), and one through a label thinner than the step.
     assert_eq!(seq.frames()[0].planes.len(), 20 + 15 + 1);
 }
+
+/// Runs a Python `script` (with `args`) when python3 can import nibabel, and returns its stdout;
+/// `None`, with a notice, when it cannot. CI installs nibabel and sets DYNASLICE_REQUIRE_NIBABEL,
+/// so there a missing nibabel is a failure, not a skip.
+fn with_nibabel(script: &str, args: &[&Path]) -> Option<String> {
+    let importable = std::process::Command::new("python3")
+        .args(["-c", "import nibabel"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !importable {
+        assert!(
+            std::env::var_os("DYNASLICE_REQUIRE_NIBABEL").is_none(),
+            "nibabel is not importable but DYNASLICE_REQUIRE_NIBABEL is set"
+        );
+        println!("SKIPPED nibabel interoperability: `python3 -c 'import nibabel'` fails");
+        return None;
+    }
+    let out = std::process::Command::new("python3")
+        .arg("-c")
+        .arg(script)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(String::from_utf8(out.stdout).unwrap())
+}
+
+/// nibabel, the reference NIfTI implementation of the Python imaging world, reads our files
+/// with the same voxels, affine and frame interval, and we read its files (qform only, 4D,
+/// int16, gzipped) with the same labels and world map.
+#[test]
+fn nibabel_reads_our_files_and_we_read_its_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = volume();
+    let ours = dir.path().join("ours.nii.gz");
+    write_volume(&v, &ours).unwrap();
+    let read_ours = r#"
+import sys, json, numpy as np, nibabel as nib
+img = nib.load(sys.argv[1])
+print(json.dumps({
+    "shape": list(img.shape),
+    "affine": img.affine[:3].tolist(),
+    "sform_code": int(img.header["sform_code"]),
+    "dt": float(img.header["pixdim"][4]),
+    "labels": np.asarray(img.dataobj).ravel(order="F").astype(int).tolist(),
+}))
+"#;
+    let Some(text) = with_nibabel(read_ours, &[&ours]) else {
+        return;
+    };
+    let seen: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(seen["shape"], serde_json::json!([40, 30, 20, 3]));
+    assert_eq!(seen["sform_code"], 2);
+    assert_eq!(seen["dt"], 0.5);
+    for (r, row) in AFFINE.iter().enumerate() {
+        for (c, &want) in row.iter().enumerate() {
+            assert_eq!(
+                seen["affine"][r][c].as_f64().unwrap(),
+                want,
+                "affine[{r}][{c}]"
+            );
+        }
+    }
+    let labels: Vec<i32> = serde_json::from_value(seen["labels"].clone()).unwrap();
+    assert_eq!(
+        labels, v.labels,
+        "voxels in NIfTI order (x fastest, then y, z, t)"
+    );
+
+    // nibabel writes: a 30° rotation about z with anisotropic voxels, as the qform only.
+    let theirs = dir.path().join("theirs.nii.gz");
+    let write_theirs = r#"
+import sys, numpy as np, nibabel as nib
+c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+affine = np.array([[1.5 * c, -s, 0, 10], [1.5 * s, c, 0, -20], [0, 0, 2, 5], [0, 0, 0, 1]])
+i, j, k, f = np.indices((6, 5, 4, 2))
+data = ((7 * i + 3 * j + k + f) % 5).astype(np.int16)
+img = nib.Nifti1Image(data, None)
+img.set_qform(affine, code=1)
+img.set_sform(None, code=0)
+img.header.set_xyzt_units("mm", "sec")
+img.header["pixdim"][4] = 0.25
+nib.save(img, sys.argv[1])
+"#;
+    with_nibabel(write_theirs, &[&theirs]).unwrap();
+    let back = read_volume(&theirs).unwrap();
+    assert_eq!((back.dims, back.frames), ([6, 5, 4], 2));
+    assert_eq!(back.frame_interval, 0.25);
+    let (c, s) = (
+        std::f64::consts::FRAC_PI_6.cos(),
+        std::f64::consts::FRAC_PI_6.sin(),
+    );
+    let want = [
+        [1.5 * c, -s, 0.0, 10.0],
+        [1.5 * s, c, 0.0, -20.0],
+        [0.0, 0.0, 2.0, 5.0],
+    ];
+    for (r, (got, want)) in back.affine.iter().zip(&want).enumerate() {
+        for (col, (g, w)) in got.iter().zip(want).enumerate() {
+            // The qform stores a quaternion and offsets in f32.
+            assert!((g - w).abs() < 1e-5, "affine[{r}][{col}]: {g} vs {w}");
+        }
+    }
+    for f in 0..2 {
+        for k in 0..4 {
+            for j in 0..5 {
+                for i in 0..6 {
+                    let want = ((7 * i + 3 * j + k + f) % 5) as i32;
+                    assert_eq!(back.label(i as isize, j as isize, k as isize, f), want);
+                }
+            }
+        }
+    }
+}
