@@ -121,3 +121,25 @@ fn errors_name_path_line_and_problem() {
     let e = native::from_json("").unwrap_err();
     assert!(matches!(e.kind, ErrorKind::Syntax(_)), "{e}");
 }
+
+/// The digest is the FNV-1a hash of the JSON text (streamed), so equal sequences agree and a
+/// moved vertex or a renamed class changes it.
+#[test]
+fn digest_hashes_the_document() {
+    let seq = sample();
+    let fnv = native::to_json(&seq)
+        .bytes()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+        });
+    assert_eq!(native::digest(&seq), fnv);
+    let back = native::from_json(&native::to_json(&seq)).unwrap();
+    assert_eq!(native::digest(&back), fnv);
+    let (mut classes, mut frames) = seq.clone().into_parts();
+    frames[0].planes[0].annotations[0].polygons[0][0][0] += 1e-9;
+    let moved = Sequence::new(classes.clone(), frames).unwrap();
+    assert_ne!(native::digest(&moved), fnv);
+    classes[0].name.push('!');
+    let renamed = Sequence::new(classes, seq.frames().to_vec()).unwrap();
+    assert_ne!(native::digest(&renamed), fnv);
+}

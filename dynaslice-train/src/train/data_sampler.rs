@@ -109,10 +109,16 @@ impl DataSampler {
         let (lo, hi) = domain.bounds();
         let s = domain.scale[0] as f64;
         let (t0, t1) = domain.time_range();
-        // The fingerprint only has to tell runs apart: the sequence's debug text hashed.
-        let text = format!("{seq:?}");
-        let fingerprint = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-            (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+        // The fingerprint tells runs apart: the data's digest and the batch sizes (a resume with
+        // other counts would draw other samples).
+        let fingerprint = [
+            counts.contour_per_class,
+            counts.plane_per_class,
+            counts.space,
+        ]
+        .iter()
+        .fold(crate::data::native::digest(seq), |h, &c| {
+            (h ^ c as u64).wrapping_mul(0x100_0000_01b3)
         });
         DataSampler {
             index: SamplingIndex::new(seq),
