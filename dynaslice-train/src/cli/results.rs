@@ -80,6 +80,9 @@ pub struct Args {
     /// Contour and plane samples per class, and space-time samples, per step.
     #[arg(long, default_value_t = SampleCounts::default().space)]
     samples: usize,
+    /// c of ω_t^max = c·π/Δt (Eq. 4) for the variants with temporal control.
+    #[arg(long, default_value_t = 1.0)]
+    temporal_factor: f32,
 }
 
 fn variant(name: &str) -> Result<Variant> {
@@ -161,7 +164,7 @@ pub fn run(a: Args) -> Result<()> {
             plane_per_class: a.samples,
             space: a.samples,
         },
-        temporal_factor: 1.0,
+        temporal_factor: a.temporal_factor,
     };
     let command = std::iter::once("dynaslice".to_string())
         .chain(std::env::args().skip(1))

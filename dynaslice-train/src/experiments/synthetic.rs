@@ -140,7 +140,8 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
         "Each shape of `dynaslice synth` sliced at every 4th of 37 frames (15 + 15 planes, \
          35 + 35 for the thin tube); every variant trained for the same number of steps, \
          calibrated per shape to take {} min on {} threads (network {:?}, {} contour + {} plane \
-         samples per class and {} space-time samples per step). Scores at all 37 frames: 3D IoU \
+         samples per class and {} space-time samples per step; ω_t^max = {}·π/Δt with temporal \
+         control). Scores at all 37 frames: 3D IoU \
          of the Eq. 11 labels against the exact shapes on a {}³ grid over [−1, 1]³, and CD×10⁴ \
          (docs/metrics.md) between {} area-uniform samples of the model's mesh ({} cells per \
          axis) and of the exact surface ({} cells), normalised by the domain diagonal; both \
@@ -151,6 +152,7 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
         p.counts.contour_per_class,
         p.counts.plane_per_class,
         p.counts.space,
+        p.temporal_factor,
         resolution.iou,
         resolution.samples,
         resolution.mesh,
