@@ -108,8 +108,9 @@ impl Report {
     fn markdown(&self) -> String {
         let mut s = String::from("# Results\n\n");
         s += &format!(
-            "Regenerate with `{}` (about 3 × 4 + 2 × 3 + 5 + 2 + 3 models of the given minutes \
-             each, plus scoring). Written by that command; every figure below is its output.\n\n",
+            "Regenerate with `{}` (one model per row and input, each trained for the given \
+             minutes, plus scoring). Written by that command; every figure below is its \
+             output.\n\n",
             self.command
         );
         for why in &self.skipped {

@@ -7,7 +7,7 @@
 //! - [`reference`]: static reconstructions of `.csl` cross-sections against reference meshes.
 //!
 //! Every run of one table trains for the same number of steps, calibrated once per input to
-//! take the requested wall time: equal compute, and a comparison a busy machine cannot tilt.
+//! take the requested wall time ([`Protocol::steps_for`]): equal compute, and a comparison a busy machine cannot tilt.
 
 pub mod multiclass;
 pub mod reference;
@@ -25,7 +25,7 @@ use std::time::Instant;
 /// What every run shares.
 #[derive(Clone, Debug)]
 pub struct Protocol {
-    /// Training wall time per run, turned into a step count per input by [`calibrate`].
+    /// Training wall time per run, turned into a step count per input by [`Protocol::steps_for`].
     pub minutes: f64,
     /// Base training options (steps, time limit and ω_t^max are set per run).
     pub options: TrainOptions,
@@ -59,6 +59,25 @@ impl Protocol {
             temporal_control,
         );
         o
+    }
+
+    /// Steps of the full method on `seq` that take `self.minutes` on this machine now, from a
+    /// short timed run (its first step, which warms caches and allocators, is not counted).
+    pub fn steps_for(&self, seq: &Sequence) -> Result<u64> {
+        const PROBE: u64 = 6;
+        let probe = self.options(seq, PROBE, true, true);
+        let mut sampler = DataSampler::new(seq, domain_for(seq), self.counts);
+        let start = Instant::now();
+        let mut first = None;
+        train(&probe, seq.classes().len(), &mut sampler, |p| {
+            if p.step == 1 {
+                first = Some(start.elapsed());
+            }
+            ControlFlow::Continue(())
+        })?;
+        let per_step =
+            (start.elapsed() - first.unwrap_or_default()).as_secs_f64() / (PROBE - 1) as f64;
+        Ok(((self.minutes * 60.0 / per_step) as u64).max(1))
     }
 }
 
@@ -103,32 +122,6 @@ pub fn fit(seq: &Sequence, options: &TrainOptions, counts: SampleCounts) -> Resu
         steps: outcome.steps_done,
         seconds: outcome.elapsed.as_secs_f64(),
     })
-}
-
-/// Steps of `options` on `seq` that take `minutes` on this machine now, from a short timed run
-/// (its first step, which warms caches and allocators, is not counted).
-pub fn calibrate(
-    seq: &Sequence,
-    options: &TrainOptions,
-    counts: SampleCounts,
-    minutes: f64,
-) -> Result<u64> {
-    const PROBE: u64 = 6;
-    let mut probe = options.clone();
-    probe.steps = PROBE;
-    probe.time_limit = None;
-    probe.checkpoint = None;
-    let mut sampler = DataSampler::new(seq, domain_for(seq), counts);
-    let start = Instant::now();
-    let mut first = None;
-    train(&probe, seq.classes().len(), &mut sampler, |p| {
-        if p.step == 1 {
-            first = Some(start.elapsed());
-        }
-        ControlFlow::Continue(())
-    })?;
-    let per_step = (start.elapsed() - first.unwrap_or_default()).as_secs_f64() / (PROBE - 1) as f64;
-    Ok(((minutes * 60.0 / per_step) as u64).max(1))
 }
 
 /// `v` with `digits` decimals, or "–" where undefined.

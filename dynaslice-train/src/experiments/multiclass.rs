@@ -8,7 +8,7 @@
 //! independent models together cost about K times the steps of the shared one. Each one-class
 //! model sees exactly the planes that annotate its class, as the shared model does.
 
-use super::{calibrate, cell, fit, Protocol};
+use super::{cell, fit, Protocol};
 use crate::data::Sequence;
 use crate::metrics::heldout::{held_out, held_out_class, HeldOut, Split};
 use crate::metrics::iou::Overlap;
@@ -87,13 +87,7 @@ impl Case {
 
     /// Steps of the shared model that take `p.minutes`.
     pub fn calibrate(&self, p: &Protocol) -> Result<u64> {
-        let train = self.split.training(&self.seq)?;
-        calibrate(
-            &train,
-            &p.options(&train, 1, true, true),
-            p.counts,
-            p.minutes,
-        )
+        p.steps_for(&self.split.training(&self.seq)?)
     }
 
     /// Trains and scores one way of sharing, `steps` steps per model.

@@ -3,7 +3,7 @@
 //! time; CD×10⁴ is normalised by the reference's bounding-box diagonal, and the 3D IoU compares
 //! the model's labels with the reference's interior on a grid over the reference's box.
 
-use super::{calibrate, cell, fit, Fitted, Protocol};
+use super::{cell, fit, Fitted, Protocol};
 use crate::data::{csl, LabelNames, Sequence};
 use crate::mesh::{self, Mesh, Surfaces};
 use crate::metrics::chamfer::{self, bounding_diagonal, read_stl};
@@ -63,12 +63,7 @@ impl Case {
 
     /// Steps that take `p.minutes`.
     pub fn calibrate(&self, p: &Protocol) -> Result<u64> {
-        calibrate(
-            &self.seq,
-            &p.options(&self.seq, 1, true, true),
-            p.counts,
-            p.minutes,
-        )
+        p.steps_for(&self.seq)
     }
 
     /// Trains for `steps` and scores against the reference.

@@ -3,7 +3,7 @@
 //! labels and by Chamfer distance against the exact analytic shapes
 //! ([`crate::metrics::benchmark`]), split into annotated (trained) and unannotated frames.
 
-use super::{calibrate, cell, fit, Fitted, Protocol};
+use super::{cell, fit, Fitted, Protocol};
 use crate::data::Sequence;
 use crate::metrics::benchmark::{Resolution, Scores, Truth};
 use crate::metrics::Frames;
@@ -86,12 +86,7 @@ impl Scene {
     /// Steps that take `p.minutes` for the full method on this scene (every variant costs the
     /// same per step).
     pub fn calibrate(&self, p: &Protocol) -> Result<u64> {
-        calibrate(
-            &self.seq,
-            &p.options(&self.seq, 1, true, true),
-            p.counts,
-            p.minutes,
-        )
+        p.steps_for(&self.seq)
     }
 
     /// Trains `variant` for `steps` and scores it at every benchmark frame.

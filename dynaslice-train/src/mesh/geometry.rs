@@ -45,6 +45,32 @@ impl Topology {
 }
 
 impl Mesh {
+    /// The axis-aligned box [lo, hi] as 12 outward triangles on its 8 corners (e.g. a
+    /// reference shape with a closed-form volume and area).
+    pub fn cuboid(lo: [f32; 3], hi: [f32; 3]) -> Mesh {
+        let positions = (0..8)
+            .map(|o: usize| std::array::from_fn(|a| if (o >> a) & 1 == 1 { hi[a] } else { lo[a] }))
+            .collect();
+        // Faces as corner quads, counter-clockwise from outside.
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let triangles = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        Mesh {
+            positions,
+            triangles,
+            ..Mesh::default()
+        }
+    }
+
     fn corners(&self, t: &[u32; 3]) -> [[f64; 3]; 3] {
         t.map(|i| self.positions[i as usize].map(|v| v as f64))
     }
@@ -209,29 +235,8 @@ fn norm(a: [f64; 3]) -> f64 {
 mod tests {
     use super::*;
 
-    /// The unit cube [0, 1]³ as 12 outward triangles.
     fn cube() -> Mesh {
-        let positions = (0..8)
-            .map(|o| std::array::from_fn(|a| ((o >> a) & 1) as f32))
-            .collect();
-        // Faces as corner quads, counter-clockwise from outside.
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let triangles = quads
-            .iter()
-            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-            .collect();
-        Mesh {
-            positions,
-            triangles,
-            ..Mesh::default()
-        }
+        Mesh::cuboid([0.0; 3], [1.0; 3])
     }
 
     #[test]

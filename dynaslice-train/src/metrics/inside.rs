@@ -249,22 +249,7 @@ mod tests {
 
     /// The box [lo, hi], two triangles a face, outward.
     fn cuboid(lo: [f64; 3], hi: [f64; 3]) -> Mesh {
-        let v: Vec<[f64; 3]> = (0..8)
-            .map(|i| std::array::from_fn(|a| if (i >> a) & 1 == 1 { hi[a] } else { lo[a] }))
-            .collect();
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let t = quads
-            .iter()
-            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-            .collect();
-        mesh(v, t)
+        Mesh::cuboid(lo.map(|v| v as f32), hi.map(|v| v as f32))
     }
 
     /// A UV sphere: `stacks` rings of latitude, `slices` meridians, poles on the z axis.
