@@ -116,3 +116,35 @@ fn bad_inputs_are_named() {
         "{err}"
     );
 }
+
+/// Per-class weights are checked against the data's classes and recorded in the model.
+#[test]
+fn class_weights_are_validated_and_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = common::write_sequence(dir.path());
+    let model = dir.path().join("w.dsm");
+    let out = common::train_command(&input, &model, &["--steps", "2", "--class-weights", "1,2"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--class-weights: 2 class weights for 1 classes"),
+        "{err}"
+    );
+    let out = common::train_command(&input, &model, &["--steps", "2", "--class-weights", "3"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = dynaslice_train::model_file::read_model_bytes(&model).unwrap();
+    let m = dynaslice_core::Model::from_bytes(&bytes).unwrap();
+    assert!(
+        m.metadata().contains("class_weights = [3.0]"),
+        "{}",
+        m.metadata()
+    );
+}

@@ -77,6 +77,10 @@ pub struct Args {
     /// Space-time samples per step.
     #[arg(long, default_value_t = SampleCounts::default().space)]
     space_samples: usize,
+    /// Per-class weights of the contour and plane terms, one per class in class order (e.g.
+    /// 1,1,4 to favour a small third structure); default all 1.
+    #[arg(long, value_delimiter = ',', value_name = "W1,W2,…")]
+    class_weights: Option<Vec<f32>>,
     /// Minutes between checkpoints.
     #[arg(long, default_value_t = 2.0)]
     checkpoint_minutes: f64,
@@ -135,6 +139,11 @@ pub fn run(a: Args) -> Result<()> {
         omega_t_max
     );
     let mut sampler = DataSampler::new(&seq, domain, counts);
+    if let Some(w) = &a.class_weights {
+        sampler = sampler
+            .with_class_weights(w)
+            .map_err(|e| anyhow::anyhow!("--class-weights: {e}"))?;
+    }
     let outcome = run_with_progress(&options, k, &mut sampler)?;
 
     let mut metadata = format!("trainer = dynaslice {}\n", env!("CARGO_PKG_VERSION"));
@@ -155,6 +164,9 @@ pub fn run(a: Args) -> Result<()> {
         "samples = {} contour + {} plane per class, {} space-time",
         counts.contour_per_class, counts.plane_per_class, counts.space
     )?;
+    if let Some(w) = &a.class_weights {
+        writeln!(metadata, "class_weights = {w:?}")?;
+    }
     if let Some(last) = outcome.history.last() {
         writeln!(metadata, "final_loss = {}", last.2)?;
     }

@@ -26,8 +26,9 @@ pub struct Network {
 impl Network {
     /// SIREN initialisation (vsitzmann/siren, modules.py) with ω₀ (SIREN uses 30) folded into the weights,
     /// which is the same function: sin(ω₀(Wx + b)) = sin((ω₀W)x + ω₀b).
-    /// - First layer: ω₀·U(−1/fan_in, 1/fan_in) for ω_x (fan_in = 4 inputs); ω_t uniform in
-    ///   [−ω_t^max, ω_t^max] (Eq. 4) or like ω_x without temporal control.
+    /// - First layer: ω₀·U(−1/fan_in, 1/fan_in) for ω_x (fan_in = 4 inputs); ω_t from the same
+    ///   range cut to ω_t^max, U(−min(ω₀/4, ω_t^max), …), so inside [−ω_t^max, ω_t^max] (Eq. 4);
+    ///   without temporal control (ω_t^max = ∞) exactly like ω_x.
     /// - Hidden layers: ω₀·U(−√(6/fan_in)/ω₀, √(6/fan_in)/ω₀) = U(−√(6/fan_in), √(6/fan_in)).
     /// - Output layer: U(−√(6/fan_in)/ω₀, …) as SIREN's last linear layer, i.e. small outputs.
     /// - Biases: PyTorch's default U(−1/√fan_in, 1/√fan_in), times ω₀ for sine layers.
