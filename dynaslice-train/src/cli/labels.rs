@@ -109,9 +109,11 @@ pub fn run(a: Args) -> Result<()> {
             class.label,
             class.name,
             v(0),
-            grid.times[0],
+            // Times come from f32 header fields: print them at that precision (1, not
+            // 1.0000000074505806).
+            grid.times[0] as f32,
             v(frames - 1),
-            grid.times[frames - 1]
+            grid.times[frames - 1] as f32
         );
     }
     Ok(())
