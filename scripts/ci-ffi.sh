@@ -4,7 +4,7 @@
 # 1. Installs what it needs on a fresh Debian machine (as root): gcc/g++, valgrind, python3,
 #    pkg-config, cmake, libvtk9-dev (~175 MB download), and cbindgen at the pinned version.
 # 2. Fails when include/dynaslice.h differs from a fresh cbindgen generation.
-# 3. Runs the host tests (C static/shared, valgrind, C++ threads, docs example, pkg-config
+# 3. Runs the host tests (C static/shared, valgrind, C++ threads, docs example, CMake and pkg-config
 #    install, Python), with every host tool present, so none of them may skip.
 # 4. Installs the release build into a temporary prefix, builds the VTK example against it with
 #    find_package(dynaslice), extracts both surfaces of the sphere fixture and checks each mesh:

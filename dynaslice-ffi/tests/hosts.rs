@@ -430,18 +430,63 @@ fn docs_example_compiles_and_runs() {
 }
 
 /// The install step of docs/c-api.md, then a build through `pkg-config --cflags --libs`.
+/// Installs the library with install.sh into `dir`/prefix and returns the prefix.
+fn install(dir: &Path) -> PathBuf {
+    let prefix = dir.join("prefix");
+    run(Command::new("sh")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("install.sh"))
+        .arg(&prefix)
+        .arg(lib_dir()));
+    prefix
+}
+
+/// A CMake host finds the installed package (`find_package(dynaslice 0.1 REQUIRED)`) and links
+/// the guide's example against both imported targets, which then run.
+#[test]
+fn cmake_find_package() {
+    if !have("cmake", "CMake package") || !have("gcc", "CMake package") {
+        return;
+    }
+    let dir = scratch_dir("cmake");
+    let prefix = install(&dir);
+    let src = dir.join("src");
+    std::fs::create_dir_all(&src).unwrap();
+    std::fs::write(
+        src.join("CMakeLists.txt"),
+        format!(
+            "cmake_minimum_required(VERSION 3.16)\nproject(consumer C)\n\
+             find_package(dynaslice 0.1 REQUIRED)\n\
+             add_executable(shared {q})\ntarget_link_libraries(shared PRIVATE dynaslice::dynaslice)\n\
+             add_executable(static {q})\ntarget_link_libraries(static PRIVATE dynaslice::dynaslice_static)\n",
+            q = root().join("examples/c/quickstart.c").display()
+        ),
+    )
+    .unwrap();
+    let build = dir.join("build");
+    run(Command::new("cmake")
+        .arg("-S")
+        .arg(&src)
+        .arg("-B")
+        .arg(&build)
+        .arg(format!("-DCMAKE_PREFIX_PATH={}", prefix.display())));
+    run(Command::new("cmake").arg("--build").arg(&build));
+    let model = dir.join("model.dsm");
+    std::fs::write(&model, test_model()).unwrap();
+    for exe in ["shared", "static"] {
+        let out = run(Command::new(build.join(exe))
+            .env("LD_LIBRARY_PATH", prefix.join("lib"))
+            .arg(&model));
+        assert!(out.contains("3 classes"), "{exe}: {out}");
+    }
+}
+
 #[test]
 fn install_and_pkg_config() {
     if !have("gcc", "pkg-config build") || !have("pkg-config", "pkg-config build") {
         return;
     }
-    let libs = lib_dir();
     let dir = scratch_dir("install");
-    let prefix = dir.join("prefix");
-    run(Command::new("sh")
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("install.sh"))
-        .arg(&prefix)
-        .arg(&libs));
+    let prefix = install(&dir);
     for file in [
         "include/dynaslice.h",
         "include/dynaslice_vtk.h",
