@@ -42,15 +42,6 @@ fn dynaslice(args: &[&str]) -> Output {
         .unwrap()
 }
 
-fn ok(out: &Output) -> String {
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr),
-    );
-    assert!(out.status.success(), "{stdout}\n{stderr}");
-    stdout.into_owned()
-}
-
 fn write_model(path: &Path, bytes: &[u8]) -> String {
     std::fs::write(path, bytes).unwrap();
     path.to_str().unwrap().to_string()
@@ -76,7 +67,7 @@ fn held_out_slices_of_a_sequence() {
     args.extend(split);
     args.extend(["-o", train.to_str().unwrap()]);
     let log = dynaslice(&args);
-    ok(&log);
+    common::succeeded(&log);
     assert!(
         String::from_utf8_lossy(&log.stderr).contains("2 of 3 frames, 6 of 15 planes"),
         "{}",
@@ -87,10 +78,10 @@ fn held_out_slices_of_a_sequence() {
     let run = common::train_command(&train, &trained, &["--steps", "30"])
         .output()
         .unwrap();
-    ok(&run);
+    common::succeeded(&run);
     let mut args = vec!["eval", "heldout", trained.to_str().unwrap(), input];
     args.extend(split);
-    let table = ok(&dynaslice(&args));
+    let table = common::succeeded(&dynaslice(&args));
     for row in ["spatial", "temporal", "spatio-temporal"] {
         let iou = row_mean(&table, row);
         assert!((0.0..=1.0).contains(&iou), "{row}: {iou}\n{table}");
@@ -103,7 +94,7 @@ fn held_out_slices_of_a_sequence() {
     let mut args = vec!["eval", "heldout", model.as_str(), input];
     args.extend(split);
     args.extend(["--pixels", "200"]);
-    let table = ok(&dynaslice(&args));
+    let table = common::succeeded(&dynaslice(&args));
     // The model's radius is exact at t = 0, 4 % small at t = 2 (disc IoU ≈ 0.92 there) and
     // 1.4 % small at the withheld t = 1 (≈ 0.97).
     for row in ["spatial", "temporal", "spatio-temporal"] {
@@ -130,7 +121,7 @@ fn volumes_over_time_follow_the_closed_form() {
         &ball_model(&[BALL], &[("ball", 1)]),
     );
     let csv = dir.path().join("v.csv");
-    ok(&dynaslice(&[
+    common::succeeded(&dynaslice(&[
         "eval",
         "volume",
         &model,
@@ -207,7 +198,7 @@ fn chamfer_distance_to_a_reference_mesh() {
     // has radius 11, so both directions are 1 mm away: CD = 2·1²/D², D = 22√3.
     let stl = dir.path().join("ref.stl");
     write(&stl, &uv_sphere([0.0; 3], 11.0, 96), Format::Stl, "ref").unwrap();
-    let out = ok(&dynaslice(&[
+    let out = common::succeeded(&dynaslice(&[
         "eval",
         "reference",
         &model,
@@ -255,7 +246,7 @@ fn synthetic_chambers_at_their_first_frame() {
     let bytes = spheres::model_in(identity, &balls, &[("a", 1), ("b", 2), ("c", 3)]);
     let model = write_model(&dir.path().join("chambers.dsm"), &bytes);
     let csv = dir.path().join("frames.csv");
-    let table = ok(&dynaslice(&[
+    let table = common::succeeded(&dynaslice(&[
         "eval",
         "synthetic",
         &model,

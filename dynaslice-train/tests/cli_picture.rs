@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{train_command, write_sequence};
+use common::{succeeded, train_command, write_sequence};
 use std::process::Command;
 
 #[test]
@@ -13,11 +13,7 @@ fn draws_labels_and_contours() {
     let out = train_command(&input, &model, &["--steps", "50"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let picture = |extra: &[&str]| {
         Command::new(env!("CARGO_BIN_EXE_dynaslice"))
             .args(["picture", model.to_str().unwrap(), input.to_str().unwrap()])
@@ -27,11 +23,7 @@ fn draws_labels_and_contours() {
     };
     let png = dir.path().join("fig.png");
     let out = picture(&["-o", png.to_str().unwrap(), "--frame", "1"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let bytes = std::fs::read(&png).unwrap();
     assert_eq!(&bytes[1..4], b"PNG");
     // Two panels (frame 1 and halfway to frame 2) of at most 480 px plus margins.

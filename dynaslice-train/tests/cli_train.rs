@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 
-use common::{train_command, write_sequence};
+use common::{succeeded, train_command, write_sequence};
 
 #[test]
 fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {
@@ -20,11 +20,7 @@ fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {
     let out = train_command(&input, &straight, &["--steps", "1500"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let bytes = std::fs::read(&straight).unwrap();
     let model = Model::from_bytes(&bytes).unwrap();
     assert_eq!(model.domain().time_range(), (0.0, 2.0));
@@ -75,11 +71,7 @@ fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {
     let out = train_command(&input, &resumed, &["--steps", "1500", "--resume"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     assert_eq!(
         std::fs::read(&resumed).unwrap(),
         bytes,
@@ -135,11 +127,7 @@ fn class_weights_are_validated_and_recorded() {
     let out = common::train_command(&input, &model, &["--steps", "2", "--class-weights", "3"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let bytes = dynaslice_train::model_file::read_model_bytes(&model).unwrap();
     let m = dynaslice_core::Model::from_bytes(&bytes).unwrap();
     assert!(

@@ -1,7 +1,7 @@
 //! Helpers shared by the command-line tests.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output};
 
 /// A sphere of radius r(t) = 10 + 2t mm cut by 5 z-planes, at times 0, 1, 2 (s), as a .csl
 /// manifest with one file per timestep (counter-clockwise circles, label 1).
@@ -52,4 +52,15 @@ pub fn train_command(input: &Path, out: &Path, extra: &[&str]) -> Command {
     .args(["--space-samples", "256", "--threads", "2", "--seed", "7"])
     .args(extra);
     c
+}
+
+/// Fails the test with the command's stderr unless it exited 0; returns its stdout.
+pub fn succeeded(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
 }
