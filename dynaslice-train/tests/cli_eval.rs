@@ -287,3 +287,51 @@ fn synthetic_chambers_at_their_first_frame() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("chambers has 3"));
 }
+
+/// Degenerate scoring sizes are refused by name instead of printing undefined scores.
+#[test]
+fn degenerate_sizes_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_model(
+        &dir.path().join("ball.dsm"),
+        &ball_model(&[BALL], &[("ball", 1)]),
+    );
+    let input = common::write_sequence(dir.path());
+    let cases: [(&[&str], &str); 3] = [
+        (
+            &[
+                "eval",
+                "heldout",
+                &model,
+                input.to_str().unwrap(),
+                "--holdout-planes",
+                "1::2",
+                "--pixels",
+                "0",
+            ],
+            "--pixels 0",
+        ),
+        (
+            &["eval", "reference", &model, "missing.stl", "--samples", "0"],
+            "--samples 0",
+        ),
+        (
+            &[
+                "eval",
+                "synthetic",
+                &model,
+                "--shape",
+                "blob",
+                "--resolution",
+                "0",
+            ],
+            "at least 1 cell per axis",
+        ),
+    ];
+    for (args, want) in cases {
+        let out = dynaslice(args);
+        assert!(!out.status.success(), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+}

@@ -245,6 +245,9 @@ fn reference(a: ReferenceArgs) -> Result<()> {
             a.class
         );
     }
+    if a.samples == 0 {
+        bail!("--samples 0: the Chamfer distance needs at least 1 sample per surface");
+    }
     let reference = chamfer::read_stl(&a.reference)?;
     let t = a.time.unwrap_or(f64::from(model.domain().time_range().0));
     let options = mesh::Options {

@@ -68,6 +68,10 @@ impl Case {
 
     /// Trains for `steps` and scores against the reference.
     pub fn run(&self, p: &Protocol, steps: u64, r: Resolution) -> Result<CaseRun> {
+        anyhow::ensure!(
+            r.iou >= 1 && r.samples >= 1,
+            "the IoU grid needs at least 1 cell and the Chamfer distance at least 1 sample"
+        );
         let fitted = fit(
             &self.seq,
             &p.options(&self.seq, steps, true, true),

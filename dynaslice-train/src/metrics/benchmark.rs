@@ -56,6 +56,13 @@ impl Truth {
     /// Meshes and samples `shape` at the benchmark's frames; `annotated` marks the frames
     /// models are trained on.
     pub fn new(shape: Shape, annotated: &[usize], resolution: Resolution) -> Result<Truth> {
+        anyhow::ensure!(
+            resolution.iou >= 1 && resolution.samples >= 1,
+            "the IoU grid needs at least 1 cell per axis and the Chamfer distance at least 1 \
+             sample per surface (got {} and {})",
+            resolution.iou,
+            resolution.samples
+        );
         let bench = BenchmarkOptions::default();
         let times: Vec<f64> = (0..bench.timesteps).map(|i| bench.time(i)).collect();
         let k = shape.class_names().len();

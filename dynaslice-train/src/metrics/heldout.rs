@@ -158,6 +158,10 @@ fn score(
     split: &Split,
     pixels: usize,
 ) -> Result<HeldOut> {
+    ensure!(
+        pixels >= 2,
+        "--pixels {pixels}: a plane needs at least 2 pixels along its longer side"
+    );
     for (mine, &c) in model.classes().zip(channels) {
         let theirs = &seq.classes()[c];
         ensure!(
