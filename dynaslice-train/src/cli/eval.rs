@@ -19,6 +19,16 @@ use std::path::{Path, PathBuf};
 
 /// Arguments of `dynaslice eval`.
 #[derive(clap::Args, Debug)]
+#[command(after_help = "\
+Examples:
+  dynaslice eval synthetic model.dsm --shape chambers --csv frames.csv
+  dynaslice eval reference model.dsm eight_15_reference.stl
+  dynaslice eval split seg.nii.gz --holdout-planes 3::4 -o train.json
+  dynaslice train train.json -o model.dsm
+  dynaslice eval heldout model.dsm seg.nii.gz --holdout-planes 3::4
+  dynaslice eval volume model.dsm --times 0:1:37 -o volumes.csv
+
+Definitions of every score: docs/metrics.md.")]
 pub struct Args {
     #[command(subcommand)]
     what: What,
