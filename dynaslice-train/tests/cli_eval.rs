@@ -42,6 +42,14 @@ fn dynaslice(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// Runs `dynaslice args`, which must fail with `want` in its error output.
+fn fails_with(args: &[&str], want: &str) {
+    let out = dynaslice(args);
+    assert!(!out.status.success(), "{args:?} succeeded");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains(want), "{args:?}: {err}");
+}
+
 fn write_model(path: &Path, bytes: &[u8]) -> String {
     std::fs::write(path, bytes).unwrap();
     path.to_str().unwrap().to_string()
@@ -108,9 +116,7 @@ fn held_out_slices_of_a_sequence() {
     );
     let mut args = vec!["eval", "heldout", two.as_str(), input];
     args.extend(split);
-    let out = dynaslice(&args);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("2 classes and the input 1"));
+    fails_with(&args, "2 classes and the input 1");
 }
 
 #[test]
@@ -215,35 +221,23 @@ fn chamfer_distance_to_a_reference_mesh() {
         .unwrap();
     let want = 2.0 / (22.0f64.powi(2) * 3.0) * 1e4;
     assert!((cd - want).abs() < 0.1 * want, "{cd} vs {want}\n{out}");
-    let out = dynaslice(&[
-        "eval",
-        "reference",
-        &model,
-        stl.to_str().unwrap(),
-        "--class",
-        "2",
-    ]);
-    assert!(!out.status.success());
-    assert!(
-        String::from_utf8_lossy(&out.stderr).contains("--class 2 but the model has classes 1..1")
+    fails_with(
+        &[
+            "eval",
+            "reference",
+            &model,
+            stl.to_str().unwrap(),
+            "--class",
+            "2",
+        ],
+        "--class 2 but the model has classes 1..1",
     );
 }
 
 #[test]
 fn synthetic_chambers_at_their_first_frame() {
     let dir = tempfile::tempdir().unwrap();
-    let identity = Domain {
-        center: [0.0; 3],
-        scale: [1.0; 3],
-        time_origin: 0.0,
-        time_span: 1.0,
-        output_scale: 1.0,
-    };
-    let (centres, radii) = dynaslice_train::synth::shapes::chambers(0.0);
-    let balls: Vec<Sphere> = (0..3)
-        .map(|c| Sphere::new(centres[c], radii[c], 0.0))
-        .collect();
-    let bytes = spheres::model_in(identity, &balls, &[("a", 1), ("b", 2), ("c", 3)]);
+    let bytes = spheres::chambers_model(0.0, 1.0);
     let model = write_model(&dir.path().join("chambers.dsm"), &bytes);
     let csv = dir.path().join("frames.csv");
     let table = common::succeeded(&dynaslice(&[
@@ -283,9 +277,10 @@ fn synthetic_chambers_at_their_first_frame() {
         &dir.path().join("one.dsm"),
         &ball_model(&[BALL], &[("ball", 1)]),
     );
-    let out = dynaslice(&["eval", "synthetic", &one, "--shape", "chambers"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("chambers has 3"));
+    fails_with(
+        &["eval", "synthetic", &one, "--shape", "chambers"],
+        "chambers has 3",
+    );
 }
 
 /// Degenerate scoring sizes are refused by name instead of printing undefined scores.
@@ -329,9 +324,6 @@ fn degenerate_sizes_are_refused() {
         ),
     ];
     for (args, want) in cases {
-        let out = dynaslice(args);
-        assert!(!out.status.success(), "{args:?}");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(err.contains(want), "{args:?}: {err}");
+        fails_with(args, want);
     }
 }

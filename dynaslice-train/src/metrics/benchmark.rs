@@ -209,7 +209,7 @@ mod tests {
     /// the radii score IoU ≈ 0.7³.
     #[test]
     fn sphere_models_against_the_chambers() {
-        use crate::metrics::spheres::{model_in, Sphere};
+        use crate::metrics::spheres::chambers_model;
         let r = Resolution {
             iou: 48,
             mesh: 64,
@@ -217,21 +217,7 @@ mod tests {
             samples: 4000,
         };
         let truth = Truth::new(Shape::Chambers, &[0], r).unwrap();
-        let identity = dynaslice_core::Domain {
-            center: [0.0; 3],
-            scale: [1.0; 3],
-            time_origin: 0.0,
-            time_span: 1.0,
-            output_scale: 1.0,
-        };
-        let (centres, radii) = crate::synth::shapes::chambers(0.0);
-        let names = [("a", 1), ("b", 2), ("c", 3)];
-        let spheres = |scale: f64| -> Vec<Sphere> {
-            (0..3)
-                .map(|c| Sphere::new(centres[c], scale * radii[c], 0.0))
-                .collect()
-        };
-        let exact = model_in(identity, &spheres(1.0), &names);
+        let exact = chambers_model(0.0, 1.0);
         let scores = truth.score(&Model::from_bytes(&exact).unwrap()).unwrap();
         for c in 0..3 {
             let (iou, cd) = (
@@ -241,7 +227,7 @@ mod tests {
             assert!(iou > 0.95, "class {c}: IoU {iou}");
             assert!(cd < 0.5, "class {c}: CD×10⁴ {cd}");
         }
-        let small = model_in(identity, &spheres(0.7), &names);
+        let small = chambers_model(0.0, 0.7);
         let worse = truth.score(&Model::from_bytes(&small).unwrap()).unwrap();
         for c in 0..3 {
             let iou = worse.iou.values[0][c].unwrap();

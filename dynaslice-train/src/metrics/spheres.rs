@@ -138,6 +138,17 @@ pub fn model_in(domain: Domain, spheres: &[Sphere], classes: &[(&str, i32)]) -> 
     .to_bytes()
 }
 
+/// The synthetic benchmark's three chambers at time `t` as static spheres of `scale` times their
+/// radii, in world coordinates (the identity domain): at `scale` = 1 a model of the exact shapes
+/// at that instant, for testing the benchmark's scores.
+pub fn chambers_model(t: f64, scale: f64) -> Vec<u8> {
+    let (centres, radii) = crate::synth::shapes::chambers(t);
+    let spheres: Vec<Sphere> = (0..3)
+        .map(|c| Sphere::new(centres[c], scale * radii[c], 0.0))
+        .collect();
+    model_in(Domain::IDENTITY, &spheres, &[("a", 1), ("b", 2), ("c", 3)])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
