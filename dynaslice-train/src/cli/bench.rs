@@ -1,6 +1,7 @@
 //! `dynaslice bench`: training-step throughput against this machine's sgemm peak.
 
 use crate::train::bench;
+use crate::train::objective::SpaceTimeScheme;
 use anyhow::Result;
 
 /// Arguments of `dynaslice bench`.
@@ -26,6 +27,8 @@ pub struct Args {
     repeats: usize,
 }
 
+/// Times both space-time schemes for every K; the trainer uses the cheaper by FLOP count
+/// (`SpaceTimeScheme::cheapest`), marked `*`.
 pub fn run(a: Args) -> Result<()> {
     let peak = bench::sgemm_peak(a.threads, a.repeats);
     println!(
@@ -34,20 +37,39 @@ pub fn run(a: Args) -> Result<()> {
     );
     println!("training step, widths {:?}, {} contour + {} plane samples per class, {} space-time, {} threads:", a.widths, a.per_class, a.per_class, a.space, a.threads);
     println!(
-        "{:>3} {:>9} {:>10} {:>12} {:>9} {:>8}",
-        "K", "params", "s/step", "points/s", "GFLOP/s", "of peak"
+        "{:>3} {:>25} {:>9} {:>10} {:>12} {:>9} {:>8}",
+        "K", "space-time scheme", "params", "s/step", "points/s", "GFLOP/s", "of peak"
     );
     for &k in &a.classes {
-        let r = bench::step(&a.widths, k, a.per_class, a.space, a.threads, a.repeats);
-        println!(
-            "{:>3} {:>9} {:>10.4} {:>12.0} {:>9.1} {:>7.1}%",
-            r.num_classes,
-            r.params,
-            r.seconds,
-            r.points_per_second,
-            r.gflops,
-            100.0 * r.gflops / peak.all
-        );
+        for scheme in [
+            SpaceTimeScheme::ReverseOverReverse,
+            SpaceTimeScheme::ForwardTangents,
+        ] {
+            let r = bench::step(
+                &a.widths,
+                k,
+                scheme,
+                a.per_class,
+                a.space,
+                a.threads,
+                a.repeats,
+            );
+            let mark = if scheme == SpaceTimeScheme::cheapest(k) {
+                "*"
+            } else {
+                " "
+            };
+            println!(
+                "{:>3} {:>24}{mark} {:>9} {:>10.4} {:>12.0} {:>9.1} {:>7.1}%",
+                r.num_classes,
+                format!("{:?} ({}M)", scheme, scheme.cost(k)),
+                r.params,
+                r.seconds,
+                r.points_per_second,
+                r.gflops,
+                100.0 * r.gflops / peak.all
+            );
+        }
     }
     Ok(())
 }

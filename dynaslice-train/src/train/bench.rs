@@ -1,14 +1,16 @@
 //! Throughput of the training step, next to this machine's sgemm peak measured in the same run.
 //!
 //! FLOP convention: matrix products only (2 FLOPs per multiply-add), counted from the scheme
-//! each set uses (see [`super::passes`]): with P = `Layout::macs_per_point`, a contour point
-//! costs 6P (one directional tangent), a space-time sample 12P (three), a plane sample 3P. Sines, the loss and Adam are
-//! not counted (they are what makes the step slower than its products).
+//! each set uses: with P = `Layout::macs_per_point`, a contour point costs 6P (one directional
+//! tangent, [`super::passes`]), a plane sample 3P, a space-time sample
+//! [`SpaceTimeScheme::cost`]·P (12P with forward tangents, (3 + 3K)P reverse over reverse).
+//! Sines, the loss and Adam are not counted (they are what makes the step slower than its
+//! products).
 
 use super::loss::{ContourSample, LossWeights, PlaneSample};
 use super::matmul::{matmul, Mat, Op};
 use super::network::{Network, OMEGA_0};
-use super::objective::{Batch, Objective};
+use super::objective::{Batch, Objective, SpaceTimeScheme};
 use dynaslice_core::Layout;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -19,6 +21,8 @@ use std::time::Instant;
 pub struct StepReport {
     /// Classes.
     pub num_classes: usize,
+    /// The space-time samples' gradient scheme.
+    pub scheme: SpaceTimeScheme,
     /// Parameters of the network.
     pub params: usize,
     /// Median seconds per step.
@@ -112,10 +116,12 @@ pub fn random_batch(k: usize, per_class: usize, space: usize, seed: u64) -> Batc
     b
 }
 
-/// Median time of a training step (loss, gradient; no sampling) at `widths` with K classes.
+/// Median time of a training step (loss, gradient; no sampling) at `widths` with K classes,
+/// space-time gradients by `scheme`.
 pub fn step(
     widths: &[u32],
     k: usize,
+    scheme: SpaceTimeScheme,
     per_class: usize,
     space: usize,
     threads: usize,
@@ -125,7 +131,7 @@ pub fn step(
     let net = Network::siren(layout, OMEGA_0, 10.0, 1);
     let batch = random_batch(k, per_class, space, 2);
     let max_set = batch.contour_x.len().max(batch.space_x.len());
-    let mut objective = Objective::new(&net, threads, max_set);
+    let mut objective = Objective::with_scheme(&net, threads, max_set, scheme);
     let weights = LossWeights {
         orientation: 0.1,
         plane: 0.1,
@@ -153,9 +159,10 @@ pub fn step(
         batch.plane_x.len() as f64,
         batch.space_x.len() as f64,
     );
-    let flops = 2.0 * p * (6.0 * contour + 3.0 * plain + 12.0 * space);
+    let flops = 2.0 * p * (6.0 * contour + 3.0 * plain + scheme.cost(k) as f64 * space);
     StepReport {
         num_classes: k,
+        scheme,
         params: layout.param_count(),
         seconds,
         points_per_second: (contour + plain + space) / seconds,

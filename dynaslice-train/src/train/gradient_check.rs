@@ -4,8 +4,9 @@
 
 use super::loss::{ContourSample, LossWeights, PlaneSample};
 use super::network::Network;
-use super::objective::{Batch, Objective};
+use super::objective::{Batch, Objective, SpaceTimeScheme};
 use super::passes::{Tangents, Workspace};
+use super::reverse_over_reverse::ReverseWorkspace;
 use dynaslice_core::{Domain, Layout, Model};
 use proptest::prelude::*;
 
@@ -140,12 +141,8 @@ proptest! {
     #[test]
     fn parameter_gradients_match_f64_central_differences((net, batch) in net_strategy(), lambdas in (0.0f32..2.0, 0.0f32..2.0, 0.1f32..2.0, 1.0f32..20.0)) {
         let weights = LossWeights { orientation: lambdas.0, plane: lambdas.1, regulariser: lambdas.2, alpha: lambdas.3 };
-        let mut objective = Objective::new(&net, 2, 16);
-        let mut grad = vec![0.0; net.params.len()];
-        let terms = objective.evaluate(&net, &batch, &weights, &mut grad);
         let p64: Vec<f64> = net.params.iter().map(|&v| v as f64).collect();
         let l64 = reference_loss(&net.layout, &p64, &batch, &weights);
-        prop_assert!((terms.total(&weights) - l64).abs() <= 1e-4 * (1.0 + l64.abs()), "loss {} vs {l64}", terms.total(&weights));
         let h = 1e-6;
         let mut numeric = vec![0.0; p64.len()];
         for i in 0..p64.len() {
@@ -157,13 +154,19 @@ proptest! {
             numeric[i] = (plus - minus) / (2.0 * h);
         }
         let max = numeric.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for (i, (g, want)) in grad.iter().zip(&numeric).enumerate() {
-            let tol = 2e-3 * want.abs().max(0.05 * max);
-            prop_assert!((*g as f64 - want).abs() <= tol, "param {i}: {g} vs {want} (max {max})");
+        for scheme in [SpaceTimeScheme::ForwardTangents, SpaceTimeScheme::ReverseOverReverse] {
+            let mut objective = Objective::with_scheme(&net, 2, 16, scheme);
+            let mut grad = vec![0.0; net.params.len()];
+            let terms = objective.evaluate(&net, &batch, &weights, &mut grad);
+            prop_assert!((terms.total(&weights) - l64).abs() <= 1e-4 * (1.0 + l64.abs()), "{scheme:?}: loss {} vs {l64}", terms.total(&weights));
+            for (i, (g, want)) in grad.iter().zip(&numeric).enumerate() {
+                let tol = 2e-3 * want.abs().max(0.05 * max);
+                prop_assert!((*g as f64 - want).abs() <= tol, "{scheme:?}, param {i}: {g} vs {want} (max {max})");
+            }
         }
     }
 
-    /// The trainer's forward pass equals the core's evaluation of the exported model.
+    /// Both schemes' f and ∇ₓf equal the core's evaluation of the exported model.
     #[test]
     fn trainer_outputs_match_the_core((net, batch) in net_strategy()) {
         let k = net.layout.num_classes();
@@ -171,17 +174,20 @@ proptest! {
         let model = Model::from_bytes(&bytes).unwrap();
         let x = &batch.space_x;
         let n = x.len();
-        let mut ws = Workspace::new(&net, n, 3);
-        ws.forward(&net, x, Tangents::Axes);
-        let out = ws.outputs(n);
-        for (i, p) in x.iter().enumerate() {
-            let (mut f, mut g) = (vec![0.0; k], vec![[0.0; 3]; k]);
-            model.eval_grad([p[0], p[1], p[2]], p[3], &mut f, &mut g).unwrap();
-            for c in 0..k {
-                prop_assert!((out[i * k + c] - f[c]).abs() <= 1e-4 * (1.0 + f[c].abs()));
-                for d in 0..3 {
-                    let mine = out[((1 + d) * n + i) * k + c];
-                    prop_assert!((mine - g[c][d]).abs() <= 1e-4 * (1.0 + g[c][d].abs()), "∇f {mine} vs {}", g[c][d]);
+        let mut tangents = Workspace::new(&net, n, 3);
+        tangents.forward(&net, x, Tangents::Axes);
+        let mut reverse = ReverseWorkspace::new(&net, n);
+        reverse.forward(&net, x);
+        for out in [tangents.outputs(n), reverse.outputs(n)] {
+            for (i, p) in x.iter().enumerate() {
+                let (mut f, mut g) = (vec![0.0; k], vec![[0.0; 3]; k]);
+                model.eval_grad([p[0], p[1], p[2]], p[3], &mut f, &mut g).unwrap();
+                for c in 0..k {
+                    prop_assert!((out[i * k + c] - f[c]).abs() <= 1e-4 * (1.0 + f[c].abs()));
+                    for d in 0..3 {
+                        let mine = out[((1 + d) * n + i) * k + c];
+                        prop_assert!((mine - g[c][d]).abs() <= 1e-4 * (1.0 + g[c][d].abs()), "∇f {mine} vs {}", g[c][d]);
+                    }
                 }
             }
         }

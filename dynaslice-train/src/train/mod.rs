@@ -2,6 +2,7 @@
 //!
 //! - [`network`]: parameters in the core's layout, SIREN initialisation, ω_t clamp (Eq. 4).
 //! - [`passes`]: forward with spatial tangents and the matching backward pass.
+//! - [`reverse_over_reverse`]: the second scheme for ∇ₓf losses, cheaper for K ≤ 2.
 //! - [`loss`]: the loss terms and their gradients with respect to f and ∇ₓf.
 //! - [`data_sampler`]: samples from cross-section data in the normalised frame.
 //! - [`objective`]: the loss and gradient of one batch over worker threads.
@@ -18,6 +19,7 @@ mod matmul;
 pub mod network;
 pub mod objective;
 pub mod passes;
+pub mod reverse_over_reverse;
 mod simd;
 pub mod trainer;
 

@@ -7,7 +7,50 @@
 use super::loss::{self, ContourSample, LossTerms, LossWeights, PlaneSample};
 use super::network::Network;
 use super::passes::{Tangents, Workspace, INPUT_DIM};
+use super::reverse_over_reverse::ReverseWorkspace;
 use rayon::prelude::*;
+
+/// How space-time samples, which need f and the whole ∇ₓf of every channel (Eq. 8), get their
+/// exact parameter gradient. Both schemes give the same gradient up to rounding; they differ in
+/// cost, counted in M (one layer's matrix product over the set's points).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpaceTimeScheme {
+    /// Three forward tangents, then one backward through primal and tangents
+    /// ([`super::passes`]): 12M whatever K is.
+    ForwardTangents,
+    /// A forward, a backward per channel for ∇ₓf^k, then the reverse of both
+    /// ([`super::reverse_over_reverse`]): (3 + 3K)M.
+    ReverseOverReverse,
+}
+
+impl SpaceTimeScheme {
+    /// Matrix-product cost per point in units of one layer's product (see the variants).
+    pub fn cost(self, num_classes: usize) -> usize {
+        match self {
+            SpaceTimeScheme::ForwardTangents => 12,
+            SpaceTimeScheme::ReverseOverReverse => 3 + 3 * num_classes,
+        }
+    }
+
+    /// The cheaper scheme for K classes: reverse over reverse for K ≤ 2 (6M and 9M against
+    /// 12M), forward tangents from K = 3 on (a tie at 3, where one stacked pass needs less
+    /// memory; 4x cheaper at the multi-organ K = 8–40).
+    pub fn cheapest(num_classes: usize) -> SpaceTimeScheme {
+        let reverse = SpaceTimeScheme::ReverseOverReverse;
+        let tangents = SpaceTimeScheme::ForwardTangents;
+        if reverse.cost(num_classes) < tangents.cost(num_classes) {
+            reverse
+        } else {
+            tangents
+        }
+    }
+}
+
+/// The space-time buffers of one worker, for the scheme in use.
+enum SpaceTimeWorkspace {
+    Tangents(Workspace),
+    Reverse(ReverseWorkspace),
+}
 
 /// The samples of one optimisation step, in the network's normalised frame.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -28,7 +71,7 @@ pub struct Batch {
 
 struct Worker {
     directional: Workspace,
-    with_gradient: Workspace,
+    space_time: SpaceTimeWorkspace,
     plain: Workspace,
     g_out: Vec<f32>,
     grad: Vec<f32>,
@@ -45,15 +88,34 @@ fn chunk(len: usize, parts: usize, i: usize) -> std::ops::Range<usize> {
 }
 
 impl Objective {
-    /// Buffers for `workers` threads and batches of at most `max_set` samples per set.
+    /// Buffers for `workers` threads and batches of at most `max_set` samples per set, with the
+    /// cheapest space-time scheme for the network's K ([`SpaceTimeScheme::cheapest`]).
     pub fn new(net: &Network, workers: usize, max_set: usize) -> Objective {
+        let scheme = SpaceTimeScheme::cheapest(net.layout.num_classes());
+        Objective::with_scheme(net, workers, max_set, scheme)
+    }
+
+    /// As [`Objective::new`], with the given space-time scheme (for benchmarks and tests).
+    pub fn with_scheme(
+        net: &Network,
+        workers: usize,
+        max_set: usize,
+        scheme: SpaceTimeScheme,
+    ) -> Objective {
         let workers = workers.max(1);
         let cap = max_set.div_ceil(workers).max(1);
         let k = net.layout.num_classes();
         let workers = (0..workers)
             .map(|_| Worker {
                 directional: Workspace::new(net, cap, 1),
-                with_gradient: Workspace::new(net, cap, 3),
+                space_time: match scheme {
+                    SpaceTimeScheme::ForwardTangents => {
+                        SpaceTimeWorkspace::Tangents(Workspace::new(net, cap, 3))
+                    }
+                    SpaceTimeScheme::ReverseOverReverse => {
+                        SpaceTimeWorkspace::Reverse(ReverseWorkspace::new(net, cap))
+                    }
+                },
                 plain: Workspace::new(net, cap, 0),
                 g_out: vec![0.0; 4 * cap * k],
                 grad: vec![0.0; net.params.len()],
@@ -102,12 +164,24 @@ impl Objective {
             let c = chunk(batch.space_x.len(), parts, i);
             if !c.is_empty() {
                 let x = &batch.space_x[c];
-                w.with_gradient.forward(net, x, Tangents::Axes);
-                let out = w.with_gradient.outputs(x.len());
+                let out = match &mut w.space_time {
+                    SpaceTimeWorkspace::Tangents(ws) => {
+                        ws.forward(net, x, Tangents::Axes);
+                        ws.outputs(x.len())
+                    }
+                    SpaceTimeWorkspace::Reverse(ws) => {
+                        ws.forward(net, x);
+                        ws.outputs(x.len())
+                    }
+                };
                 let t = loss::space_time(out, k, x.len(), space_weight, weights, &mut w.g_out);
                 w.terms.add(&t);
-                w.with_gradient
-                    .backward(net, x, Tangents::Axes, &w.g_out, &mut w.grad);
+                match &mut w.space_time {
+                    SpaceTimeWorkspace::Tangents(ws) => {
+                        ws.backward(net, x, Tangents::Axes, &w.g_out, &mut w.grad)
+                    }
+                    SpaceTimeWorkspace::Reverse(ws) => ws.backward(net, x, &w.g_out, &mut w.grad),
+                }
             }
         });
         grad.fill(0.0);

@@ -14,14 +14,13 @@
 //! backward, i.e. 3(1 + T)M per point. The trainer picks T per point set ([`Tangents`]):
 //! - plane samples need f only: T = 0, **3M**;
 //! - contour points need f^k and only ⟨∇ₓf^k, n⟩ (Eq. 6 is a directional derivative along the
-//!   in-plane normal): T = 1 along n, **6M** — the cost of reverse-over-reverse for their one
-//!   channel, without a second backward scheme;
+//!   in-plane normal): T = 1 along n, **6M** — what reverse over reverse would cost for their
+//!   one channel, in one stacked pass;
 //! - space-time samples need the whole ∇ₓf^k of every channel (Eq. 8): T = 3 axes, **12M**
-//!   whatever K is. Reverse-over-reverse would cost about 6M per channel (a forward, a
-//!   backward seeded on channel k for ∇ₓf^k, then the reverse of both), i.e. 6KM: equal at
-//!   K = 2, and 4x dearer at the multi-organ K = 8. For K = 1 it would save half of this set's
-//!   cost; we keep one scheme (T = 3) for all K and record the measured step times in
-//!   docs/performance.md.
+//!   whatever K is. Reverse over reverse ([`super::reverse_over_reverse`]) costs (3 + 3K)M
+//!   instead, so the trainer uses it for K ≤ 2 and this scheme from K = 3 on
+//!   ([`super::objective::SpaceTimeScheme::cheapest`]; step times of both in
+//!   docs/performance.md).
 //!
 //! The first layer's input tangent for direction u is Σ_d u_d e_d, so Ż₀ = Σ_d u_d W₀ᵀ[d]
 //! (for the axes, row d of W₀ᵀ itself, i.e. ω_x), and its weight gradient gets Σ_rows u_d Ḡ_Ż₀
@@ -132,16 +131,8 @@ impl Workspace {
         // Layer 0 (Eq. 2): Z_p = X W₀ᵀ + φ; Ż_d = row d of W₀ᵀ.
         let (_, w0) = layout.layer_dims(0);
         let wt0 = &p[..INPUT_DIM * w0];
-        let b0 = &p[INPUT_DIM * w0..(INPUT_DIM + 1) * w0];
         let z0 = &mut self.z[0];
-        for (zrow, x) in z0[..n * w0].chunks_exact_mut(w0).zip(inputs) {
-            zrow.copy_from_slice(b0);
-            for (d, &xd) in x.iter().enumerate() {
-                for (zv, wv) in zrow.iter_mut().zip(&wt0[d * w0..(d + 1) * w0]) {
-                    *zv += xd * wv;
-                }
-            }
-        }
+        input_layer(net, inputs, &mut z0[..n * w0]);
         for g in 0..t {
             let group = &mut z0[(1 + g) * n * w0..(2 + g) * n * w0];
             for (i, row) in group.chunks_exact_mut(w0).enumerate() {
@@ -177,9 +168,7 @@ impl Workspace {
                 &mut self.z[l][..rows * fan_out]
             };
             matmul(z, false, input, Op::N, wt, Op::N);
-            for zrow in z[..n * fan_out].chunks_exact_mut(fan_out) {
-                zrow.iter_mut().zip(bias).for_each(|(v, b)| *v += b);
-            }
+            add_bias(&mut z[..n * fan_out], bias);
             if !is_output {
                 activate(
                     &self.z[l][..rows * fan_out],
@@ -234,22 +223,10 @@ impl Workspace {
             }
             let g_z = Mat::new(&g_cur[..rows * fan_out], rows, fan_out);
             let (gw, gb) = grad[off..off + (fan_in + 1) * fan_out].split_at_mut(fan_in * fan_out);
-            for grow in g_cur[..n * fan_out].chunks_exact(fan_out) {
-                gb.iter_mut().zip(grow).for_each(|(a, b)| *a += b);
-            }
+            add_row_sums(gb, &g_cur[..n * fan_out]);
             if l == 0 {
                 // ∂W₀ᵀ = Xᵀ Ḡ_Zp + Σ_g Σ_rows u_g,d Ḡ_Ż_g on row d (u: the input directions).
-                for (x, grow) in inputs
-                    .iter()
-                    .zip(g_cur[..n * fan_out].chunks_exact(fan_out))
-                {
-                    for (d, &xd) in x.iter().enumerate() {
-                        gw[d * fan_out..(d + 1) * fan_out]
-                            .iter_mut()
-                            .zip(grow)
-                            .for_each(|(a, b)| *a += xd * b);
-                    }
-                }
+                input_layer_weight_grad(inputs, &g_cur[..n * fan_out], gw);
                 for g in 0..t {
                     let group = &g_cur[(1 + g) * n * fan_out..(2 + g) * n * fan_out];
                     for (i, grow) in group.chunks_exact(fan_out).enumerate() {
@@ -272,6 +249,49 @@ impl Workspace {
         }
         self.g_a = g_cur;
         self.g_b = g_next;
+    }
+}
+
+/// Z₀ = X W₀ᵀ + φ over the primal rows (Eq. 2): `z` is `inputs.len() × w₀`. The stored ω_t are
+/// already inside their bound (the trainer clamps them after every step, Eq. 4).
+pub(super) fn input_layer(net: &Network, inputs: &[[f32; INPUT_DIM]], z: &mut [f32]) {
+    let (_, w0) = net.layout.layer_dims(0);
+    let wt0 = &net.params[..INPUT_DIM * w0];
+    let b0 = &net.params[INPUT_DIM * w0..(INPUT_DIM + 1) * w0];
+    for (zrow, x) in z.chunks_exact_mut(w0).zip(inputs) {
+        zrow.copy_from_slice(b0);
+        for (d, &xd) in x.iter().enumerate() {
+            for (zv, wv) in zrow.iter_mut().zip(&wt0[d * w0..(d + 1) * w0]) {
+                *zv += xd * wv;
+            }
+        }
+    }
+}
+
+/// ∂W₀ᵀ += Xᵀ Ḡ_Z: row d of the first layer's Wᵀ gathers Σᵢ xᵢ,d Ḡ_Z[i] (`g` is `inputs.len() × w₀`).
+pub(super) fn input_layer_weight_grad(inputs: &[[f32; INPUT_DIM]], g: &[f32], gw: &mut [f32]) {
+    let w0 = gw.len() / INPUT_DIM;
+    for (x, grow) in inputs.iter().zip(g.chunks_exact(w0)) {
+        for (d, &xd) in x.iter().enumerate() {
+            gw[d * w0..(d + 1) * w0]
+                .iter_mut()
+                .zip(grow)
+                .for_each(|(a, b)| *a += xd * b);
+        }
+    }
+}
+
+/// Adds `bias` to every row of `z`.
+pub(super) fn add_bias(z: &mut [f32], bias: &[f32]) {
+    for zrow in z.chunks_exact_mut(bias.len()) {
+        zrow.iter_mut().zip(bias).for_each(|(v, b)| *v += b);
+    }
+}
+
+/// ∂b += the column sums of `g` (rows of `gb.len()`).
+pub(super) fn add_row_sums(gb: &mut [f32], g: &[f32]) {
+    for grow in g.chunks_exact(gb.len()) {
+        gb.iter_mut().zip(grow).for_each(|(a, b)| *a += b);
     }
 }
 
