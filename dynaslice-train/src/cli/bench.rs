@@ -28,7 +28,8 @@ pub struct Args {
 }
 
 /// Times both space-time schemes for every K; the trainer uses the cheaper by FLOP count
-/// (`SpaceTimeScheme::cheapest`), marked `*`.
+/// (`SpaceTimeScheme::cheapest`), marked `*`. "hinge": the contour points whose orientation
+/// term was active, whose tangent backward therefore ran.
 pub fn run(a: Args) -> Result<()> {
     let peak = bench::sgemm_peak(a.threads, a.repeats);
     println!(
@@ -37,8 +38,8 @@ pub fn run(a: Args) -> Result<()> {
     );
     println!("training step, widths {:?}, {} contour + {} plane samples per class, {} space-time, {} threads:", a.widths, a.per_class, a.per_class, a.space, a.threads);
     println!(
-        "{:>3} {:>25} {:>9} {:>10} {:>12} {:>9} {:>8}",
-        "K", "space-time scheme", "params", "s/step", "points/s", "GFLOP/s", "of peak"
+        "{:>3} {:>25} {:>9} {:>10} {:>12} {:>9} {:>8} {:>7}",
+        "K", "space-time scheme", "params", "s/step", "points/s", "GFLOP/s", "of peak", "hinge"
     );
     for &k in &a.classes {
         for scheme in [
@@ -60,14 +61,15 @@ pub fn run(a: Args) -> Result<()> {
                 " "
             };
             println!(
-                "{:>3} {:>24}{mark} {:>9} {:>10.4} {:>12.0} {:>9.1} {:>7.1}%",
+                "{:>3} {:>24}{mark} {:>9} {:>10.4} {:>12.0} {:>9.1} {:>7.1}% {:>6.0}%",
                 r.num_classes,
                 format!("{:?} ({}M)", scheme, scheme.cost(k)),
                 r.params,
                 r.seconds,
                 r.points_per_second,
                 r.gflops,
-                100.0 * r.gflops / peak.all
+                100.0 * r.gflops / peak.all,
+                100.0 * r.active_contour
             );
         }
     }

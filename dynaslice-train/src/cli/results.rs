@@ -83,6 +83,13 @@ pub struct Args {
     /// c of ω_t^max = c·π/Δt (Eq. 4) for the variants with temporal control.
     #[arg(long, default_value_t = 1.0)]
     temporal_factor: f32,
+    /// ω₀: the first layer's spatial frequency scale over the normalised cube.
+    #[arg(long, default_value_t = TrainOptions::default().omega_0)]
+    omega0: f32,
+    /// Seeds per (shape, variant) of the synthetic table, 0..N: the table shows their mean
+    /// (one seed's ranking of two variants can flip with the next seed).
+    #[arg(long, default_value_t = 3)]
+    seeds: u64,
 }
 
 fn variant(name: &str) -> Result<Variant> {
@@ -158,6 +165,7 @@ pub fn run(a: Args) -> Result<()> {
             threads: a.threads.max(1),
             lr: a.lr,
             lr_final: a.lr / 10.0,
+            omega_0: a.omega0,
             ..TrainOptions::default()
         },
         counts: SampleCounts {
@@ -201,16 +209,22 @@ pub fn run(a: Args) -> Result<()> {
         for &shape in &a.shapes {
             let scene = Scene::new(shape, report.synthetic_resolution)?;
             let steps = scene.calibrate(&protocol)?;
-            for &v in &variants {
-                eprintln!("{} / {}: {steps} steps", shape.name(), v.name());
-                let run = scene.run(v, &protocol, steps)?;
-                eprintln!("{}", run.summary());
-                save(
-                    format!("{}_{}.dsm", shape.name(), v.key()),
-                    &run.fitted.bytes,
-                )?;
-                report.synthetic.push(run);
-                report.write(&a.output)?;
+            for seed in 0..a.seeds.max(1) {
+                for &v in &variants {
+                    eprintln!(
+                        "{} / {} / seed {seed}: {steps} steps",
+                        shape.name(),
+                        v.name()
+                    );
+                    let run = scene.run(v, seed, &protocol, steps)?;
+                    eprintln!("{}", run.summary());
+                    save(
+                        format!("{}_{}_seed{seed}.dsm", shape.name(), v.key()),
+                        &run.fitted.bytes,
+                    )?;
+                    report.synthetic.push(run);
+                    report.write(&a.output)?;
+                }
             }
         }
     }

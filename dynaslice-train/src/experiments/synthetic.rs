@@ -59,6 +59,8 @@ pub struct Run {
     pub shape: Shape,
     /// The ablation.
     pub variant: Variant,
+    /// Seed of initialisation and sampling.
+    pub seed: u64,
     /// The trained model.
     pub fitted: Fitted,
     /// Its scores at every frame.
@@ -89,19 +91,21 @@ impl Scene {
         p.steps_for(&self.seq)
     }
 
-    /// Trains `variant` for `steps` and scores it at every benchmark frame.
-    pub fn run(&self, variant: Variant, p: &Protocol, steps: u64) -> Result<Run> {
-        let options = p.options(
+    /// Trains `variant` for `steps` from `seed` and scores it at every benchmark frame.
+    pub fn run(&self, variant: Variant, seed: u64, p: &Protocol, steps: u64) -> Result<Run> {
+        let mut options = p.options(
             &self.seq,
             steps,
             variant.temporal_control(),
             variant.orientation(),
         );
+        options.seed = seed;
         let fitted = fit(&self.seq, &options, p.counts)?;
         let scores = self.truth.score(&fitted.model())?;
         Ok(Run {
             shape: self.shape,
             variant,
+            seed,
             fitted,
             scores,
         })
@@ -113,9 +117,10 @@ impl Run {
     pub fn summary(&self) -> String {
         let (iou, cd) = (&self.scores.iou, &self.scores.cd);
         format!(
-            "{} / {}: IoU {} (annotated {}, unannotated {}), CD×10⁴ {} after {} steps in {:.0} s",
+            "{} / {} / seed {}: IoU {} (annotated {}, unannotated {}), CD×10⁴ {} after {} steps in {:.0} s",
             self.shape.name(),
             self.variant.name(),
+            self.seed,
             cell(iou.mean(Frames::All), 4),
             cell(iou.mean(Frames::Annotated), 4),
             cell(iou.mean(Frames::Unannotated), 4),
@@ -126,9 +131,13 @@ impl Run {
     }
 }
 
-/// The Table 3 markdown of `runs` (any subset of shapes and variants).
+/// The Table 3 markdown of `runs` (any subset of shapes, variants and seeds; every figure of a
+/// (shape, variant) is the mean over its seeds).
 pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
     let mut s = String::new();
+    let mut seeds: Vec<u64> = runs.iter().map(|r| r.seed).collect();
+    seeds.sort_unstable();
+    seeds.dedup();
     let _ = writeln!(s, "## Table 3 layout: synthetic benchmark\n");
     let _ = writeln!(
         s,
@@ -140,7 +149,8 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
          of the Eq. 11 labels against the exact shapes on a {}³ grid over [−1, 1]³, and CD×10⁴ \
          (docs/metrics.md) between {} area-uniform samples of the model's mesh ({} cells per \
          axis) and of the exact surface ({} cells), normalised by the domain diagonal; both \
-         averaged over classes, then frames.\n",
+         averaged over classes, then frames, then the {} seed(s) {:?} of initialisation and \
+         sampling (ω₀ = {}).\n",
         p.minutes,
         p.options.threads,
         p.options.widths,
@@ -152,6 +162,9 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
         resolution.samples,
         resolution.mesh,
         resolution.truth,
+        seeds.len(),
+        seeds,
+        p.options.omega_0,
     );
     let shapes: Vec<Shape> = Shape::ALL
         .iter()
@@ -184,11 +197,11 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
             }
             let _ = write!(s, "| {} |", v.name());
             for sh in &shapes {
-                let r = rows.iter().find(|r| r.shape == *sh);
+                let of_shape: Vec<&Run> = rows.iter().copied().filter(|r| r.shape == *sh).collect();
                 let _ = write!(
                     s,
                     " {} |",
-                    cell(r.and_then(|r| pick(r, Frames::All)), digits)
+                    cell(mean(&of_shape, &|r| pick(r, Frames::All)), digits)
                 );
             }
             let secs = rows.iter().map(|r| r.fitted.seconds).sum::<f64>() / rows.len() as f64;
@@ -212,33 +225,48 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
             .collect::<Vec<_>>()
             .join(", ")
     );
-    let multi: Vec<&Run> = runs
+    let groups: Vec<(Shape, Variant, Vec<&Run>)> = shapes
         .iter()
-        .filter(|r| r.shape.class_names().len() > 1)
+        .flat_map(|&sh| Variant::ALL.map(|v| (sh, v)))
+        .map(|(sh, v)| {
+            let of: Vec<&Run> = runs
+                .iter()
+                .filter(|r| r.shape == sh && r.variant == v)
+                .collect();
+            (sh, v, of)
+        })
+        .filter(|(_, _, of)| !of.is_empty())
         .collect();
-    if !multi.is_empty() {
+    if seeds.len() > 1 {
+        let _ = writeln!(s, "Per seed (3D IoU, all frames; seeds {seeds:?}):\n");
+        for (sh, v, of) in &groups {
+            let ious: Vec<String> = of
+                .iter()
+                .map(|r| cell(r.scores.iou.mean(Frames::All), 3))
+                .collect();
+            let _ = writeln!(s, "- {} / {}: {}", sh.name(), v.name(), ious.join(", "));
+        }
+        let _ = writeln!(s);
+    }
+    if groups.iter().any(|(sh, _, _)| sh.class_names().len() > 1) {
         let _ = writeln!(s, "Per class (IoU / CD×10⁴ over the 37 frames):\n");
-        for r in multi {
-            let classes: Vec<String> = r
-                .shape
+        for (sh, v, of) in groups
+            .iter()
+            .filter(|(sh, _, _)| sh.class_names().len() > 1)
+        {
+            let classes: Vec<String> = sh
                 .class_names()
                 .iter()
                 .enumerate()
                 .map(|(c, n)| {
                     format!(
                         "{n} {} / {}",
-                        cell(r.scores.iou.class_mean(c, Frames::All), 3),
-                        cell(r.scores.cd.class_mean(c, Frames::All), 2)
+                        cell(mean(of, &|r| r.scores.iou.class_mean(c, Frames::All)), 3),
+                        cell(mean(of, &|r| r.scores.cd.class_mean(c, Frames::All)), 2)
                     )
                 })
                 .collect();
-            let _ = writeln!(
-                s,
-                "- {} / {}: {}",
-                r.shape.name(),
-                r.variant.name(),
-                classes.join(", ")
-            );
+            let _ = writeln!(s, "- {} / {}: {}", sh.name(), v.name(), classes.join(", "));
         }
         let _ = writeln!(s);
     }

@@ -1,8 +1,9 @@
 //! Throughput of the training step, next to this machine's sgemm peak measured in the same run.
 //!
 //! FLOP convention: matrix products only (2 FLOPs per multiply-add), counted from the scheme
-//! each set uses: with P = `Layout::macs_per_point`, a contour point costs 6P (one directional
-//! tangent, [`super::passes`]), a plane sample 3P, a space-time sample
+//! each set uses: with P = `Layout::macs_per_point`, a contour point costs 4P, plus 2P when its
+//! orientation hinge is active (one directional tangent, whose backward rows are dropped when
+//! the hinge is off, [`super::passes`]), a plane sample 3P, a space-time sample
 //! [`SpaceTimeScheme::cost`]·P (12P with forward tangents, (3 + 3K)P reverse over reverse).
 //! Sines, the loss and Adam are not counted (they are what makes the step slower than its
 //! products).
@@ -27,6 +28,8 @@ pub struct StepReport {
     pub params: usize,
     /// Median seconds per step.
     pub seconds: f64,
+    /// Fraction of contour points with an active orientation hinge (their tangent backward runs).
+    pub active_contour: f64,
     /// Points (all sets) per second.
     pub points_per_second: f64,
     /// Matrix-product GFLOP/s.
@@ -159,12 +162,15 @@ pub fn step(
         batch.plane_x.len() as f64,
         batch.space_x.len() as f64,
     );
-    let flops = 2.0 * p * (6.0 * contour + 3.0 * plain + scheme.cost(k) as f64 * space);
+    let active = objective.active_contour_points() as f64;
+    let flops =
+        2.0 * p * (4.0 * contour + 2.0 * active + 3.0 * plain + scheme.cost(k) as f64 * space);
     StepReport {
         num_classes: k,
         scheme,
         params: layout.param_count(),
         seconds,
+        active_contour: active / contour.max(1.0),
         points_per_second: (contour + plain + space) / seconds,
         gflops: flops / seconds / 1e9,
     }

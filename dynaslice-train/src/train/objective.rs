@@ -125,6 +125,15 @@ impl Objective {
         Objective { workers }
     }
 
+    /// Contour points of the last [`Objective::evaluate`] whose orientation hinge was active,
+    /// i.e. whose tangent rows its backward pass carried (see [`Workspace::backward`]).
+    pub fn active_contour_points(&self) -> usize {
+        self.workers
+            .iter()
+            .map(|w| w.directional.kept_points())
+            .sum()
+    }
+
     /// Loss terms of `batch`, and the gradient of the weighted total written to `grad`.
     /// Runs on the current rayon pool.
     pub fn evaluate(

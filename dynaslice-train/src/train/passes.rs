@@ -81,6 +81,8 @@ pub struct Workspace {
     /// Gradient buffers for the backward pass (the widest stacked layer).
     g_a: Vec<f32>,
     g_b: Vec<f32>,
+    /// Points whose tangent rows the backward pass keeps (see [`Workspace::backward`]).
+    kept: Vec<usize>,
 }
 
 impl Workspace {
@@ -100,6 +102,7 @@ impl Workspace {
             out: vec![0.0; rows * layout.num_classes()],
             g_a: vec![0.0; rows * widest],
             g_b: vec![0.0; rows * widest],
+            kept: Vec::with_capacity(capacity),
         }
     }
 
@@ -184,7 +187,14 @@ impl Workspace {
 
     /// Backward pass for the last forward over `points` points: `g_out` holds ∂loss/∂(stacked
     /// outputs) in the layout of [`Workspace::outputs`]; parameter gradients are added to
-    /// `grad` (same order as the parameters).
+    /// `grad` (same order as the parameters). It consumes the forward's state: call
+    /// [`Workspace::forward`] again before another backward.
+    ///
+    /// A point whose tangent outputs all have a zero adjoint (a contour point whose orientation
+    /// hinge, Eq. 6, is inactive) contributes exactly nothing through its tangent rows:
+    /// Ḡ_Ż = cos Z ⊙ Ḡ_Ḣ stays zero down the network, and so does −sin Z ⊙ Ż ⊙ Ḡ_Ḣ. Such rows
+    /// are dropped from every product, so the backward costs 2(1 + T·m/N)M instead of
+    /// 2(1 + T)M for m kept points out of N.
     pub fn backward(
         &mut self,
         net: &Network,
@@ -197,15 +207,23 @@ impl Workspace {
         check_tangents(tangents, self.tangents, n);
         let layout = &net.layout;
         let t = self.tangents;
-        let rows = n * (1 + t);
         let p = &net.params;
         let k = layout.num_classes();
-        assert!(g_out.len() >= rows * k && grad.len() == p.len());
+        assert!(g_out.len() >= n * (1 + t) * k && grad.len() == p.len());
+        let m = self.keep_tangent_rows(net, n, g_out);
+        let rows = n + t * m;
 
         // Ḡ flows from layer l to l−1 through g_a (current) and g_b (next).
         let mut g_cur = std::mem::take(&mut self.g_a);
         let mut g_next = std::mem::take(&mut self.g_b);
-        g_cur[..rows * k].copy_from_slice(&g_out[..rows * k]);
+        g_cur[..n * k].copy_from_slice(&g_out[..n * k]);
+        for g in 0..t {
+            for (j, &i) in self.kept.iter().enumerate() {
+                let src = ((1 + g) * n + i) * k;
+                let dst = (n + g * m + j) * k;
+                g_cur[dst..dst + k].copy_from_slice(&g_out[src..src + k]);
+            }
+        }
         for l in (0..layout.num_layers()).rev() {
             let (fan_in, fan_out) = layout.layer_dims(l);
             let off = layout.layer_offset(l);
@@ -217,8 +235,8 @@ impl Workspace {
                     &self.s[l],
                     &self.cos[l],
                     n,
-                    t,
                     fan_out,
+                    &self.kept,
                 );
             }
             let g_z = Mat::new(&g_cur[..rows * fan_out], rows, fan_out);
@@ -228,8 +246,8 @@ impl Workspace {
                 // ∂W₀ᵀ = Xᵀ Ḡ_Zp + Σ_g Σ_rows u_g,d Ḡ_Ż_g on row d (u: the input directions).
                 input_layer_weight_grad(inputs, &g_cur[..n * fan_out], gw);
                 for g in 0..t {
-                    let group = &g_cur[(1 + g) * n * fan_out..(2 + g) * n * fan_out];
-                    for (i, grow) in group.chunks_exact(fan_out).enumerate() {
+                    let group = &g_cur[(n + g * m) * fan_out..(n + (g + 1) * m) * fan_out];
+                    for (&i, grow) in self.kept.iter().zip(group.chunks_exact(fan_out)) {
                         for d in 0..3 {
                             let u = tangents.component(g, i, d);
                             if u != 0.0 {
@@ -249,6 +267,43 @@ impl Workspace {
         }
         self.g_a = g_cur;
         self.g_b = g_next;
+    }
+
+    /// Points whose tangent rows the last backward pass kept (all of them with no tangents).
+    pub fn kept_points(&self) -> usize {
+        self.kept.len()
+    }
+
+    /// Fills `kept` with the points whose tangent outputs have a nonzero adjoint in `g_out`
+    /// and, when some are dropped, moves their tangent rows of every layer's Z and S to the
+    /// front of each tangent group (group g's kept row j at n + g·m + j). Returns m.
+    fn keep_tangent_rows(&mut self, net: &Network, n: usize, g_out: &[f32]) -> usize {
+        let t = self.tangents;
+        let k = net.layout.num_classes();
+        self.kept.clear();
+        let carries = |i: usize| {
+            (0..t).any(|g| {
+                let start = ((1 + g) * n + i) * k;
+                g_out[start..start + k].iter().any(|&v| v != 0.0)
+            })
+        };
+        self.kept.extend((0..n).filter(|&i| carries(i)));
+        let m = self.kept.len();
+        if m < n {
+            // Destination rows never pass their source (j ≤ kept[j], m ≤ n), and groups move in
+            // order, so copying forward in place reads every source row before it is overwritten.
+            for (l, &w) in net.layout.widths().iter().enumerate() {
+                for buf in [&mut self.z[l], &mut self.s[l]] {
+                    for g in 0..t {
+                        for (j, &i) in self.kept.iter().enumerate() {
+                            let (src, dst) = ((n + g * n + i) * w, (n + g * m + j) * w);
+                            buf.copy_within(src..src + w, dst);
+                        }
+                    }
+                }
+            }
+        }
+        m
     }
 }
 
@@ -326,14 +381,16 @@ multiversion! {
 multiversion! {
     /// In place: g (Ḡ_H' stacked) becomes Ḡ_Z:
     /// Ḡ_Zp = cos ⊙ Ḡ_Hp − sin ⊙ Σ_d Ż_d ⊙ Ḡ_Ḣd;  Ḡ_Żd = cos ⊙ Ḡ_Ḣd.
-    /// One pass per tangent group so every loop is a contiguous, vectorisable sweep.
-    fn sine_backward(g: &mut [f32], z: &[f32], s: &[f32], cos: &[f32], n: usize, t: usize, w: usize) {
+    /// Tangent rows are the `kept` points' (see [`Workspace::backward`]), each group
+    /// `kept.len()` rows; one row sweep at a time, contiguous and vectorisable.
+    fn sine_backward(g: &mut [f32], z: &[f32], s: &[f32], cos: &[f32], n: usize, w: usize, kept: &[usize]) {
         let (gp, gt) = g.split_at_mut(n * w);
         gp.iter_mut().zip(&cos[..n * w]).for_each(|(g, c)| *g *= c);
-        for d in 0..t {
-            let range = d * n * w..(d + 1) * n * w;
-            let zd = &z[n * w + range.start..n * w + range.end];
-            for ((((gpv, gtv), zv), sv), cv) in gp.iter_mut().zip(&mut gt[range]).zip(zd).zip(s).zip(cos) {
+        let zt = &z[n * w..n * w + gt.len()];
+        for (j, (gtrow, zrow)) in gt.chunks_exact_mut(w).zip(zt.chunks_exact(w)).enumerate() {
+            let i = kept[j % kept.len()];
+            let row = i * w..(i + 1) * w;
+            for ((((gpv, gtv), zv), sv), cv) in gp[row.clone()].iter_mut().zip(gtrow).zip(zrow).zip(&s[row.clone()]).zip(&cos[row]) {
                 *gpv -= sv * zv * *gtv;
                 *gtv *= cv;
             }
