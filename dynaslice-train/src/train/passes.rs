@@ -15,7 +15,8 @@
 //! - plane samples need f only: T = 0, **3M**;
 //! - contour points need f^k and only ⟨∇ₓf^k, n⟩ (Eq. 6 is a directional derivative along the
 //!   in-plane normal): T = 1 along n, **6M** — what reverse over reverse would cost for their
-//!   one channel, in one stacked pass;
+//!   one channel, in one stacked pass — or 4M for those whose orientation hinge is inactive
+//!   (see [`Workspace::backward`]);
 //! - space-time samples need the whole ∇ₓf^k of every channel (Eq. 8): T = 3 axes, **12M**
 //!   whatever K is. Reverse over reverse ([`super::reverse_over_reverse`]) costs (3 + 3K)M
 //!   instead, so the trainer uses it for K ≤ 2 and this scheme from K = 3 on
