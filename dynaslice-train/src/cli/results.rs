@@ -86,6 +86,9 @@ pub struct Args {
     /// ω₀: the first layer's spatial frequency scale over the normalised cube.
     #[arg(long, default_value_t = TrainOptions::default().omega_0)]
     omega0: f32,
+    /// Initial value of every channel, normalised units (see `dynaslice train --help`).
+    #[arg(long, default_value_t = TrainOptions::default().offset)]
+    init_offset: f32,
     /// Seeds per (shape, variant) of the synthetic table, 0..N: the table shows their mean
     /// (one seed's ranking of two variants can flip with the next seed).
     #[arg(long, default_value_t = 3)]
@@ -166,6 +169,7 @@ pub fn run(a: Args) -> Result<()> {
             lr: a.lr,
             lr_final: a.lr / 10.0,
             omega_0: a.omega0,
+            offset: a.init_offset,
             ..TrainOptions::default()
         },
         counts: SampleCounts {

@@ -50,6 +50,10 @@ pub struct Args {
     /// ω₀: the first layer's spatial frequency scale over the normalised cube.
     #[arg(long, default_value_t = TrainOptions::default().omega_0)]
     omega0: f32,
+    /// Initial value of every channel in normalised units (the domain's half-width is 1): the
+    /// network starts "outside" everywhere, so regions no data reaches stay background
+    #[arg(long, default_value_t = TrainOptions::default().offset)]
+    init_offset: f32,
     /// c in ω_t^max = c·π/Δt (Eq. 4), Δt the annotated frames' spacing in normalised time.
     #[arg(long, default_value_t = 1.0)]
     temporal_factor: f32,
@@ -101,6 +105,7 @@ pub fn run(a: Args) -> Result<()> {
         steps: a.steps,
         time_limit: a.minutes.map(|m| Duration::from_secs_f64(m * 60.0)),
         omega_0: a.omega0,
+        offset: a.init_offset,
         seed: a.seed,
         threads: a.threads.max(1),
         lr: a.lr,

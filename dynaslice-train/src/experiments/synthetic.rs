@@ -150,7 +150,7 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
          (docs/metrics.md) between {} area-uniform samples of the model's mesh ({} cells per \
          axis) and of the exact surface ({} cells), normalised by the domain diagonal; both \
          averaged over classes, then frames, then the {} seed(s) {:?} of initialisation and \
-         sampling (ω₀ = {}).\n",
+         sampling (ω₀ = {}, initial offset {}).\n",
         p.minutes,
         p.options.threads,
         p.options.widths,
@@ -165,6 +165,7 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
         seeds.len(),
         seeds,
         p.options.omega_0,
+        p.options.offset,
     );
     let shapes: Vec<Shape> = Shape::ALL
         .iter()

@@ -131,7 +131,7 @@ pub fn step(
     repeats: usize,
 ) -> StepReport {
     let layout = Layout::new(widths, k as u32).expect("valid benchmark layout");
-    let net = Network::siren(layout, OMEGA_0, 10.0, 1);
+    let net = Network::siren(layout, OMEGA_0, 0.0, 10.0, 1);
     let batch = random_batch(k, per_class, space, 2);
     let max_set = batch.contour_x.len().max(batch.space_x.len());
     let mut objective = Objective::with_scheme(&net, threads, max_set, scheme);

@@ -122,7 +122,7 @@ fn net_strategy() -> impl Strategy<Value = (Network, Batch)> {
             let layout = Layout::new(&widths, k).unwrap();
             // Smaller first-layer frequencies than SIREN's 30 keep the f64 differences well
             // conditioned; the passes do not depend on the weights' scale.
-            let mut net = Network::siren(layout, super::network::OMEGA_0, omega, seed);
+            let mut net = Network::siren(layout, super::network::OMEGA_0, 0.0, omega, seed);
             let w0 = layout.layer_dims(0).1;
             net.params[..4 * w0].iter_mut().for_each(|v| *v *= 0.3);
             (Just(net), batch_strategy(k))

@@ -32,7 +32,19 @@ impl Network {
     /// - Hidden layers: ω₀·U(−√(6/fan_in)/ω₀, √(6/fan_in)/ω₀) = U(−√(6/fan_in), √(6/fan_in)).
     /// - Output layer: U(−√(6/fan_in)/ω₀, …) as SIREN's last linear layer, i.e. small outputs.
     /// - Biases: PyTorch's default U(−1/√fan_in, 1/√fan_in), times ω₀ for sine layers.
-    pub fn siren(layout: Layout, omega_0: f32, omega_t_max: f32, seed: u64) -> Network {
+    /// - `offset` is added to every output bias, so every channel starts near f = +offset
+    ///   (normalised units), i.e. outside. SIREN's small output layer starts f ≈ 0 everywhere,
+    ///   and regions the data hardly reaches (the domain's corners, between frames) then drift to
+    ///   either sign: a negative drift is a spurious structure that the losses near the data never
+    ///   see. Starting outside makes "outside unless the data says otherwise" the default
+    ///   (docs/training.md measures it).
+    pub fn siren(
+        layout: Layout,
+        omega_0: f32,
+        offset: f32,
+        omega_t_max: f32,
+        seed: u64,
+    ) -> Network {
         let mut rng = Pcg64Mcg::seed_from_u64(seed);
         let mut params = Vec::with_capacity(layout.param_count());
         for l in 0..layout.num_layers() {
@@ -55,7 +67,8 @@ impl Network {
             }
             let bias_scale = if is_output { 1.0 } else { omega_0 };
             let bb = bias_scale / (fan_in as f32).sqrt();
-            params.extend((0..fan_out).map(|_| rng.random_range(-bb..=bb)));
+            let shift = if is_output { offset } else { 0.0 };
+            params.extend((0..fan_out).map(|_| shift + rng.random_range(-bb..=bb)));
         }
         let mut net = Network {
             layout,

@@ -37,6 +37,8 @@ pub struct TrainOptions {
     pub time_limit: Option<Duration>,
     /// SIREN's ω₀: the first layer's spatial frequency scale over the normalised cube.
     pub omega_0: f32,
+    /// Initial value of every channel, normalised units (see [`Network::siren`]).
+    pub offset: f32,
     /// Seed of initialisation and sampling.
     pub seed: u64,
     /// Worker threads.
@@ -59,7 +61,7 @@ pub struct TrainOptions {
 
 impl Default for TrainOptions {
     /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
-    /// 3000 steps, ω₀ = 10, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.05, α = 50, all threads,
+    /// 3000 steps, ω₀ = 10, initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.05, α = 50, all threads,
     /// no checkpoint; `omega_t_max` must be set from the data ([`super::data_sampler::temporal_bound`]).
     fn default() -> Self {
         TrainOptions {
@@ -67,6 +69,7 @@ impl Default for TrainOptions {
             steps: 3000,
             time_limit: None,
             omega_0: 10.0,
+            offset: 0.2,
             seed: 0,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             lr: 1e-3,
@@ -90,9 +93,9 @@ impl TrainOptions {
     pub fn describe(&self) -> String {
         let l = &self.loss;
         format!(
-            "widths = {:?}\nsteps = {}\nseed = {}\nthreads = {}\nomega_0 = {}\nomega_t_max = {}\n\
+            "widths = {:?}\nsteps = {}\nseed = {}\nthreads = {}\nomega_0 = {}\noffset = {}\nomega_t_max = {}\n\
              lr = {} -> {}\nlambda_orientation = {}\nlambda_plane = {}\nlambda_regulariser = {}\nalpha = {}\n",
-            self.widths, self.steps, self.seed, self.threads, self.omega_0, self.omega_t_max, self.lr,
+            self.widths, self.steps, self.seed, self.threads, self.omega_0, self.offset, self.omega_t_max, self.lr,
             self.lr_final, l.orientation, l.plane, l.regulariser, l.alpha
         )
     }
@@ -137,8 +140,8 @@ pub fn learning_rate(o: &TrainOptions, step: u64) -> f32 {
 /// FNV-1a over the options and the data digest: what a checkpoint must match.
 fn fingerprint(o: &TrainOptions, num_classes: usize, data: u64) -> u64 {
     let text = format!(
-        "{:?}|{:?}|{}|{}|{}|{}|{}|{}|{num_classes}|{data}",
-        o.widths, o.loss, o.omega_0, o.seed, o.threads, o.lr, o.lr_final, o.omega_t_max
+        "{:?}|{:?}|{}|{}|{}|{}|{}|{}|{}|{num_classes}|{data}",
+        o.widths, o.loss, o.omega_0, o.offset, o.seed, o.threads, o.lr, o.lr_final, o.omega_t_max
     );
     text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
         (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
@@ -159,7 +162,7 @@ pub fn train(
         .num_threads(o.threads.max(1))
         .build()
         .context("thread pool")?;
-    let mut net = Network::siren(layout, o.omega_0, o.omega_t_max, o.seed);
+    let mut net = Network::siren(layout, o.omega_0, o.offset, o.omega_t_max, o.seed);
     let mut adam = Adam::new(net.params.len(), AdamConfig::default());
     let print = fingerprint(o, num_classes, sampler.fingerprint());
     let mut step = 0;
@@ -296,6 +299,7 @@ mod tests {
             steps,
             time_limit: None,
             omega_0: 10.0,
+            offset: 0.2,
             seed: 3,
             threads: 2,
             lr: 3e-4,
