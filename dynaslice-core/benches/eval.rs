@@ -164,35 +164,14 @@ fn aligned(bytes: &[u8]) -> Vec<u64> {
     words
 }
 
-/// The bytes of a random SIREN with `widths` and [`CLASSES`] classes, in an allocation aligned
-/// for its weights; view them with [`model_bytes`].
-fn model_words(widths: &[u32], weight_type: WeightType) -> (Vec<u64>, usize) {
+/// f and f+∇ₓf, single points and batches, for one model.
+fn model(c: &mut Criterion, name: &str, widths: &[u32], weight_type: WeightType) -> Vec<Row> {
     let mut writer = ModelWriter::random_siren(widths, CLASSES, 1);
     writer.weight_type = weight_type;
     let raw = writer.to_bytes();
-    (aligned(&raw), raw.len())
-}
-
-fn model_bytes((words, len): &(Vec<u64>, usize)) -> &[u8] {
-    &bytemuck::cast_slice::<u64, u8>(words)[..*len]
-}
-
-/// [`BATCH`] query points spread over the normalised cube and the time range.
-fn batch_points() -> (Vec<[f32; 3]>, Vec<f32>) {
-    let xyz = (0..BATCH)
-        .map(|i| {
-            let s = i as f32 * 0.618;
-            [s.sin() * 0.9, (1.3 * s).cos() * 0.8, (0.7 * s).sin() * 0.95]
-        })
-        .collect();
-    let t = (0..BATCH).map(|i| (i as f32 * 0.37).fract()).collect();
-    (xyz, t)
-}
-
-/// f and f+∇ₓf, single points and batches, for one model.
-fn model(c: &mut Criterion, name: &str, widths: &[u32], weight_type: WeightType) -> Vec<Row> {
-    let words = model_words(widths, weight_type);
-    let model = Model::from_bytes(model_bytes(&words)).expect("valid benchmark model");
+    let words = aligned(&raw);
+    let bytes = &bytemuck::cast_slice::<u64, u8>(&words)[..raw.len()];
+    let model = Model::from_bytes(bytes).expect("valid benchmark model");
     let layout: &Layout = model.layout();
     let k = layout.num_classes();
     let macs = layout.macs_per_point() as f64;
@@ -201,7 +180,13 @@ fn model(c: &mut Criterion, name: &str, widths: &[u32], weight_type: WeightType)
         WeightType::F16 => "f16",
     };
     let label = format!("{name} {dtype}");
-    let (xyz, t) = batch_points();
+    let xyz: Vec<[f32; 3]> = (0..BATCH)
+        .map(|i| {
+            let s = i as f32 * 0.618;
+            [s.sin() * 0.9, (1.3 * s).cos() * 0.8, (0.7 * s).sin() * 0.95]
+        })
+        .collect();
+    let t: Vec<f32> = (0..BATCH).map(|i| (i as f32 * 0.37).fract()).collect();
     let mut scratch = Scratch::boxed();
     let (mut f, mut grad) = (vec![0.0f32; BATCH * k], vec![[0.0f32; 3]; BATCH * k]);
 
@@ -318,110 +303,6 @@ fn main() {
     }
     c.final_summary();
     sine.print();
-    paired_ratios(&[("w256x4", paper), ("w64x4", firmware)]);
-}
-
-/// Rounds of the paired measurement.
-const ROUNDS: usize = 41;
-
-/// Seconds per call of `routine`, timed over enough calls to last about 5 ms.
-fn timed(calls: usize, routine: &mut dyn FnMut()) -> f64 {
-    let start = Instant::now();
-    for _ in 0..calls {
-        routine();
-    }
-    start.elapsed().as_secs_f64() / calls as f64
-}
-
-/// The batched f32 paths against sgemm, interleaved: each round times the sgemm (gemm at
-/// 4096×256×256, the summary's usual peak), then f, then f+grad of each model, and divides;
-/// the medians of those per-round ratios do not depend on how busy the machine was at one
-/// moment against another, unlike ratios of medians taken seconds apart.
-fn paired_ratios(models: &[(&str, &[u32])]) {
-    let (m, k, n) = (4096, 256, 256);
-    let a: Vec<f32> = (0..m * k).map(|i| (i % 7) as f32 * 0.1).collect();
-    let b: Vec<f32> = (0..k * n).map(|i| (i % 5) as f32 * 0.1).collect();
-    let mut c = vec![0.0f32; m * n];
-    let mut sgemm = || {
-        // SAFETY: the pointers and strides describe the three row-major buffers above.
-        unsafe {
-            gemm::gemm(
-                m,
-                n,
-                k,
-                c.as_mut_ptr(),
-                1,
-                n as isize,
-                false,
-                a.as_ptr(),
-                1,
-                k as isize,
-                b.as_ptr(),
-                1,
-                n as isize,
-                0.0,
-                1.0,
-                false,
-                false,
-                false,
-                gemm::Parallelism::None,
-            )
-        };
-        black_box(&mut c);
-    };
-    let sgemm_flops = 2.0 * (m * k * n) as f64;
-    let (xyz, t) = batch_points();
-    let mut scratch = Scratch::boxed();
-    let words: Vec<_> = models
-        .iter()
-        .map(|(_, w)| model_words(w, WeightType::F32))
-        .collect();
-    let loaded: Vec<Model> = words
-        .iter()
-        .map(|w| Model::from_bytes(model_bytes(w)).expect("valid benchmark model"))
-        .collect();
-    let mut f = vec![0.0f32; BATCH * CLASSES as usize];
-    let mut grad = vec![[0.0f32; 3]; BATCH * CLASSES as usize];
-    // ratios[model][0: f, 1: f+grad]
-    let mut ratios = vec![[Vec::new(), Vec::new()]; loaded.len()];
-    for _ in 0..ROUNDS {
-        let peak = sgemm_flops / timed(3, &mut sgemm);
-        for (model, r) in loaded.iter().zip(&mut ratios) {
-            let macs = model.layout().macs_per_point() as f64 * BATCH as f64;
-            let calls = (2e7 / macs).ceil() as usize;
-            let tf = timed(calls, &mut || {
-                model.eval_batch(&mut scratch, &xyz, &t, &mut f).unwrap();
-                black_box(&mut f);
-            });
-            let tg = timed(calls.div_ceil(4), &mut || {
-                model
-                    .eval_grad_batch(&mut scratch, &xyz, &t, &mut f, &mut grad)
-                    .unwrap();
-                black_box(&mut grad);
-            });
-            r[0].push(2.0 * macs / tf / peak);
-            r[1].push(8.0 * macs / tg / peak);
-        }
-    }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        (v[v.len() / 2], v[0], v[v.len() - 1])
-    };
-    println!(
-        "paired ratios ({ROUNDS} rounds, each: gemm 4096x256x256, then every model's batch; \
-         median [min, max] of the per-round GFLOP/s ratio):"
-    );
-    for ((name, _), r) in models.iter().zip(&mut ratios) {
-        for (query, v) in ["f", "f+grad"].iter().zip(r.iter_mut()) {
-            let (med, lo, hi) = median(v);
-            println!(
-                "  {name} f32 {query:<6} batch: {:.0}% of sgemm [{:.0}%, {:.0}%]",
-                100.0 * med,
-                100.0 * lo,
-                100.0 * hi
-            );
-        }
-    }
 }
 
 /// Sines per iteration of the sine benchmarks: a layer's pre-activations for 256 points.
