@@ -461,7 +461,7 @@ fn validate_polygons(polys: &mut [Polygon], roi: &Rect) -> Result<()> {
     Ok(())
 }
 
-/// Fraction of the shortest incident edge cut off at a pinch vertex (see [`separate_pinches`]).
+/// Fraction of the shortest incident edge cut off at a pinch vertex (see `separate_pinches`).
 pub const PINCH_CUT: f64 = 1e-3;
 
 /// The one repair the validator makes: contours of a class that touch at a *shared vertex*

@@ -24,7 +24,7 @@ pub struct LabelVolume {
     pub frames: usize,
     /// Voxel index → world: `world = affine[r][0..3] · (i, j, k) + affine[r][3]` for row r.
     pub affine: [[f64; 4]; 3],
-    /// Time between frames (pixdim[4], 0 read as 1).
+    /// Time between frames (`pixdim[4]`, 0 read as 1).
     pub frame_interval: f64,
     /// Label values, x fastest.
     pub labels: Vec<i32>,

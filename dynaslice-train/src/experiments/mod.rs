@@ -4,7 +4,7 @@
 //!   full DynaSlice, scored by 3D IoU and Chamfer distance against the exact shapes.
 //! - [`multiclass`]: Table 2's idea: independent per-class models, one shared multi-class model,
 //!   and the shared model without temporal control, scored on held-out slices.
-//! - [`reference`]: static reconstructions of `.csl` cross-sections against reference meshes.
+//! - [`mod@reference`]: static reconstructions of `.csl` cross-sections against reference meshes.
 //!
 //! Every run of one table trains for the same number of steps, calibrated once per input to
 //! take the requested wall time ([`Protocol::steps_for`]): equal compute, and a comparison a busy machine cannot tilt.

@@ -10,7 +10,7 @@ use anyhow::{ensure, Result};
 const KEY_BITS: u32 = 20;
 
 /// Largest resolution accepted: far beyond what fits in memory, and it keeps every vertex index
-/// within [`KEY_BITS`] bits and an edge key (vertex key · 8 + direction) within 63 bits.
+/// within `KEY_BITS` bits and an edge key (vertex key · 8 + direction) within 63 bits.
 pub const MAX_RESOLUTION: u32 = 1 << 16;
 
 /// A lattice of cubic cells in world coordinates.

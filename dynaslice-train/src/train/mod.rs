@@ -7,7 +7,7 @@
 //! - [`data_sampler`]: samples from cross-section data in the normalised frame.
 //! - [`objective`]: the loss and gradient of one batch over worker threads.
 //! - [`adam`]: the optimiser; [`checkpoint`]: resumable state.
-//! - [`bench`]: step throughput against the machine's sgemm peak.
+//! - [`mod@bench`]: step throughput against the machine's sgemm peak.
 //! - [`trainer`]: the loop, with its schedule, time limit and checkpoints.
 
 pub mod adam;

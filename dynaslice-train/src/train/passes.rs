@@ -23,7 +23,7 @@
 //!   ([`super::objective::SpaceTimeScheme::cheapest`]; step times of both in
 //!   docs/performance.md).
 //!
-//! The first layer's input tangent for direction u is Σ_d u_d e_d, so Ż₀ = Σ_d u_d W₀ᵀ[d]
+//! The first layer's input tangent for direction u is Σ_d u_d e_d, so Ż₀ = Σ_d u_d·(row d of W₀ᵀ)
 //! (for the axes, row d of W₀ᵀ itself, i.e. ω_x), and its weight gradient gets Σ_rows u_d Ḡ_Ż₀
 //! added to row d.
 
