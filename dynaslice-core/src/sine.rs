@@ -17,13 +17,8 @@
 //! over 2·10⁶ points): max absolute error ≤ 1.2·10⁻⁷ on |x| ≤ 100 (the range of SIREN
 //! pre-activations) and ≤ 4·10⁻⁶ on |x| ≤ 10⁴; `sinf`'s own error is ≤ 6·10⁻⁸. Beyond
 //! |x| ≈ 10⁵ the reduction loses accuracy (results stay in [−1, 1]). NaN or ±∞ give NaN.
-//!
-//! [`sin`] alone reduces by π instead and evaluates one degree-9 polynomial: twice as fast as
-//! [`sin_cos`] in the sine bench (0.80 against 0.40 G sines/s on one core), max error
-//! 1.3·10⁻⁷ on |x| ≤ 100 (`sine_only_path_accuracy_against_libm` asserts ≤ 1.5·10⁻⁷).
 
 const FRAC_2_PI: f32 = core::f32::consts::FRAC_2_PI;
-const FRAC_1_PI: f32 = core::f32::consts::FRAC_1_PI;
 /// 1.5·2²³: adding it rounds a float below 2²² to an integer, held in the low mantissa bits.
 const ROUND_MAGIC: f32 = 12_582_912.0;
 const P1: f32 = 1.570_312_5;
@@ -35,11 +30,6 @@ const S3: f32 = -1.951_529_6e-4;
 const C1: f32 = 4.166_664_6e-2;
 const C2: f32 = -1.388_731_6e-3;
 const C3: f32 = 2.443_315_7e-5;
-/// sin r ≈ r + r³(T1 + r²(T2 + r²(T3 + r²·T4))) on [−π/2, π/2] (see [`sin`]).
-const T1: f32 = -1.666_666_1e-1;
-const T2: f32 = 8.333_088e-3;
-const T3: f32 = -1.981_111_4e-4;
-const T4: f32 = 2.608_934_7e-6;
 
 /// sin(x) and cos(x) together (they share the range reduction).
 #[inline(always)]
@@ -62,22 +52,10 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     )
 }
 
-/// sin(x) alone: cheaper than [`sin_cos`] (one polynomial, no quadrant swap), for the f-only
-/// evaluation path, where the sine pass is a quarter of the time.
-///
-/// k = round(x/π), r = x − kπ ∈ [−π/2, π/2] (π in three parts, the leading one with 8
-/// significant bits as in [`sin_cos`]), sin x = (−1)^k sin r, with sin r from a degree-9 odd
-/// polynomial fitted for minimal relative error on [0, π/2] (4.8·10⁻⁹ in exact arithmetic;
-/// the f32 evaluation adds up to about 2 ulp near |r| = π/2).
+/// sin(x) alone.
 #[inline(always)]
 pub fn sin(x: f32) -> f32 {
-    let shifted = x * FRAC_1_PI + ROUND_MAGIC;
-    let parity = shifted.to_bits() << 31;
-    let k = shifted - ROUND_MAGIC;
-    let r = ((x - k * (2.0 * P1)) - k * (2.0 * P2)) - k * (2.0 * P3);
-    let r2 = r * r;
-    let s = r + r * r2 * (T1 + r2 * (T2 + r2 * (T3 + r2 * T4)));
-    f32::from_bits(s.to_bits() ^ parity)
+    sin_cos(x).0
 }
 
 /// Replaces every element by its sine.
@@ -101,35 +79,6 @@ mod tests {
             ec = ec.max((c as f64 - libm::cos(x as f64)).abs());
         }
         (es, ec)
-    }
-
-    /// Max |sin − libm::sin| of the sine-only path over `n + 1` points of [lo, hi].
-    fn max_error_sin(lo: f32, hi: f32, n: usize) -> f64 {
-        (0..=n)
-            .map(|i| {
-                let x = lo + (hi - lo) * (i as f32 / n as f32);
-                (sin(x) as f64 - libm::sin(x as f64)).abs()
-            })
-            .fold(0.0, f64::max)
-    }
-
-    #[test]
-    fn sine_only_path_accuracy_against_libm() {
-        let e = max_error_sin(-100.0, 100.0, 1_000_000);
-        assert!(e <= 1.5e-7, "|x|<=100: {e:e}");
-        let e = max_error_sin(-1e4, 1e4, 1_000_000);
-        assert!(e <= 4e-6, "|x|<=1e4: {e:e}");
-        for k in -64..=64 {
-            let x = k as f32 * core::f32::consts::FRAC_PI_2;
-            assert!(
-                (sin(x) as f64 - libm::sin(x as f64)).abs() < 2e-7,
-                "sin({x})"
-            );
-        }
-        for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
-            assert!(sin(x).is_nan(), "sin({x})");
-        }
-        assert_eq!(sin(0.0), 0.0);
     }
 
     #[test]
