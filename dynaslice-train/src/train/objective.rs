@@ -52,6 +52,30 @@ enum SpaceTimeWorkspace {
     Reverse(ReverseWorkspace),
 }
 
+impl SpaceTimeWorkspace {
+    /// f and ∇ₓf of every channel at `x`, stacked as [F; ∂F/∂x; ∂F/∂y; ∂F/∂z].
+    fn forward(&mut self, net: &Network, x: &[[f32; INPUT_DIM]]) -> &[f32] {
+        match self {
+            SpaceTimeWorkspace::Tangents(ws) => {
+                ws.forward(net, x, Tangents::Axes);
+                ws.outputs(x.len())
+            }
+            SpaceTimeWorkspace::Reverse(ws) => {
+                ws.forward(net, x);
+                ws.outputs(x.len())
+            }
+        }
+    }
+
+    /// Adds the parameter gradient of the last forward, given ∂loss/∂outputs, to `grad`.
+    fn backward(&mut self, net: &Network, x: &[[f32; INPUT_DIM]], g_out: &[f32], grad: &mut [f32]) {
+        match self {
+            SpaceTimeWorkspace::Tangents(ws) => ws.backward(net, x, Tangents::Axes, g_out, grad),
+            SpaceTimeWorkspace::Reverse(ws) => ws.backward(net, x, g_out, grad),
+        }
+    }
+}
+
 /// The samples of one optimisation step, in the network's normalised frame.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Batch {
@@ -173,24 +197,10 @@ impl Objective {
             let c = chunk(batch.space_x.len(), parts, i);
             if !c.is_empty() {
                 let x = &batch.space_x[c];
-                let out = match &mut w.space_time {
-                    SpaceTimeWorkspace::Tangents(ws) => {
-                        ws.forward(net, x, Tangents::Axes);
-                        ws.outputs(x.len())
-                    }
-                    SpaceTimeWorkspace::Reverse(ws) => {
-                        ws.forward(net, x);
-                        ws.outputs(x.len())
-                    }
-                };
+                let out = w.space_time.forward(net, x);
                 let t = loss::space_time(out, k, x.len(), space_weight, weights, &mut w.g_out);
                 w.terms.add(&t);
-                match &mut w.space_time {
-                    SpaceTimeWorkspace::Tangents(ws) => {
-                        ws.backward(net, x, Tangents::Axes, &w.g_out, &mut w.grad)
-                    }
-                    SpaceTimeWorkspace::Reverse(ws) => ws.backward(net, x, &w.g_out, &mut w.grad),
-                }
+                w.space_time.backward(net, x, &w.g_out, &mut w.grad);
             }
         });
         grad.fill(0.0);
