@@ -6,6 +6,7 @@ mod eval;
 mod info;
 mod input;
 mod labels;
+mod loss;
 mod mesh;
 mod picture;
 mod query;

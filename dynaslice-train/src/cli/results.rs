@@ -1,6 +1,7 @@
 //! `dynaslice results`: reproduce the paper's tables and write them as markdown
 //! (docs/results.md), rewritten after every run so a killed job keeps what it measured.
 
+use super::loss::LossArgs;
 use crate::data::nifti::read_volume;
 use crate::data::reslice::{reslice, ResliceOptions};
 use crate::data::LabelNames;
@@ -93,6 +94,9 @@ pub struct Args {
     /// (one seed's ranking of two variants can flip with the next seed).
     #[arg(long, default_value_t = 3)]
     seeds: u64,
+    /// Loss weights; the ablations set λ_n to 0.
+    #[command(flatten)]
+    loss: LossArgs,
 }
 
 fn variant(name: &str) -> Result<Variant> {
@@ -170,6 +174,7 @@ pub fn run(a: Args) -> Result<()> {
             lr_final: a.lr / 10.0,
             omega_0: a.omega0,
             offset: a.init_offset,
+            loss: a.loss.weights(true),
             ..TrainOptions::default()
         },
         counts: SampleCounts {

@@ -1,10 +1,10 @@
 //! `dynaslice train INPUT -o MODEL.dsm`: fit a 4D multi-class SIREN to cross-sections.
 
 use super::input::{self, InputArgs};
+use super::loss::LossArgs;
 use crate::model_file::write_atomically;
 use crate::plot::{line_chart, Series};
 use crate::train::data_sampler::{domain_for, temporal_bound, DataSampler, SampleCounts};
-use crate::train::loss::LossWeights;
 use crate::train::trainer::{self, Outcome, Progress, TrainOptions};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -60,18 +60,8 @@ pub struct Args {
     /// Initial learning rate (cosine decay to a tenth).
     #[arg(long, default_value_t = TrainOptions::default().lr)]
     lr: f32,
-    /// λ_n, orientation weight (Eq. 6).
-    #[arg(long, default_value_t = TrainOptions::default().loss.orientation)]
-    lambda_orientation: f32,
-    /// λ_d, in-plane SDF weight (Eq. 7).
-    #[arg(long, default_value_t = TrainOptions::default().loss.plane)]
-    lambda_plane: f32,
-    /// λ_r, space-time regulariser weight (Eq. 8).
-    #[arg(long, default_value_t = TrainOptions::default().loss.regulariser)]
-    lambda_regulariser: f32,
-    /// α of exp(−α|f|) (Eq. 8), in normalised units.
-    #[arg(long, default_value_t = TrainOptions::default().loss.alpha)]
-    alpha: f32,
+    #[command(flatten)]
+    loss: LossArgs,
     /// Contour points per class per step.
     #[arg(long, default_value_t = SampleCounts::default().contour_per_class)]
     contour_samples: usize,
@@ -110,16 +100,7 @@ pub fn run(a: Args) -> Result<()> {
         threads: a.threads.max(1),
         lr: a.lr,
         lr_final: a.lr / 10.0,
-        loss: LossWeights {
-            orientation: if a.no_orientation {
-                0.0
-            } else {
-                a.lambda_orientation
-            },
-            plane: a.lambda_plane,
-            regulariser: a.lambda_regulariser,
-            alpha: a.alpha,
-        },
+        loss: a.loss.weights(!a.no_orientation),
         omega_t_max,
         checkpoint: Some(beside(&a.output, ".ckpt")),
         checkpoint_every: Duration::from_secs_f64(a.checkpoint_minutes * 60.0),

@@ -150,7 +150,8 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
          (docs/metrics.md) between {} area-uniform samples of the model's mesh ({} cells per \
          axis) and of the exact surface ({} cells), normalised by the domain diagonal; both \
          averaged over classes, then frames, then the {} seed(s) {:?} of initialisation and \
-         sampling (ω₀ = {}, initial offset {}).\n",
+         sampling (ω₀ = {}, initial offset {}; λ_n = {} where the variant has orientation, \
+         λ_d = {}, λ_r = {}, α = {}).\n",
         p.minutes,
         p.options.threads,
         p.options.widths,
@@ -166,6 +167,10 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
         seeds,
         p.options.omega_0,
         p.options.offset,
+        p.options.loss.orientation,
+        p.options.loss.plane,
+        p.options.loss.regulariser,
+        p.options.loss.alpha,
     );
     let shapes: Vec<Shape> = Shape::ALL
         .iter()

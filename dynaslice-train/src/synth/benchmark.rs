@@ -213,3 +213,54 @@ pub fn write_benchmark(
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{ContourBatch, SampleRng, SamplingIndex};
+
+    /// The orientation term (Eq. 6) trusts the slices' in-plane normals: each must be the
+    /// projection of the exact shape's outward normal onto its plane, so its dot product with
+    /// the exact SDF's gradient is positive.
+    #[test]
+    fn contour_normals_point_out_of_the_exact_shapes() {
+        let options = BenchmarkOptions {
+            plane_resolution: 128,
+            ..BenchmarkOptions::default()
+        };
+        for shape in Shape::ALL {
+            let seq = slice_sequence(shape, &options).unwrap();
+            let index = SamplingIndex::new(&seq);
+            let mut batch = ContourBatch::default();
+            index.sample_contours(&mut SampleRng::new(7, 0), 4000, &mut batch);
+            let mut worst = f64::INFINITY;
+            let mut bad = 0;
+            for i in 0..batch.len() {
+                let x = batch.xyz[i].map(f64::from);
+                let (t, k) = (f64::from(batch.t[i]), batch.class[i] as usize);
+                let e = 1e-5;
+                let grad: [f64; 3] = std::array::from_fn(|a| {
+                    let (mut p, mut m) = (x, x);
+                    p[a] += e;
+                    m[a] -= e;
+                    (shape.sdf(k, p, t) - shape.sdf(k, m, t)) / (2.0 * e)
+                });
+                let n = batch.normal[i].map(f64::from);
+                let dot = (0..3).map(|a| grad[a] * n[a]).sum::<f64>();
+                worst = worst.min(dot);
+                bad += usize::from(dot <= 0.0);
+            }
+            eprintln!(
+                "{}: worst dot {worst:.3}, {bad} of {} non-positive",
+                shape.name(),
+                batch.len()
+            );
+            assert_eq!(
+                bad,
+                0,
+                "{}: {bad} normals point into the shape",
+                shape.name()
+            );
+        }
+    }
+}
