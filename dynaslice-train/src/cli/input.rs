@@ -28,7 +28,7 @@ pub struct InputArgs {
     #[arg(long, value_delimiter = ',')]
     pub labels: Option<Vec<i32>>,
     /// NIfTI: in-plane sampling step of the resliced planes, world units (default: half the
-    /// smallest voxel spacing).
+    /// smallest voxel spacing, or the labelled box's longest diagonal / 1536 where coarser).
     #[arg(long)]
     pub pixel: Option<f64>,
 }

@@ -75,6 +75,8 @@ struct RawFile {
 /// Non-blank lines with their 1-based numbers.
 struct Lines<'a> {
     iter: std::iter::Peekable<Box<dyn Iterator<Item = (usize, &'a str)> + 'a>>,
+    /// Non-blank lines not yet taken by [`Lines::next`].
+    remaining: usize,
 }
 
 impl<'a> Lines<'a> {
@@ -87,14 +89,25 @@ impl<'a> Lines<'a> {
         );
         Lines {
             iter: it.peekable(),
+            remaining: text.lines().filter(|l| !l.trim().is_empty()).count(),
         }
     }
 
     fn next(&mut self, what: impl FnOnce() -> ErrorKind) -> Result<(usize, Vec<&'a str>)> {
         match self.iter.next() {
-            Some((n, l)) => Ok((n, l.split_whitespace().collect())),
+            Some((n, l)) => {
+                self.remaining = self.remaining.saturating_sub(1);
+                Ok((n, l.split_whitespace().collect()))
+            }
             None => Err(what().into()),
         }
+    }
+
+    /// Capacity to reserve for `declared` items that take a line each (planes, vertices,
+    /// components): a count field is untrusted input, so it is capped by the lines that are left.
+    /// (A fixed cap let a tiny file claiming 2^31 vertices reserve 24 MiB before failing.)
+    fn capacity(&self, declared: usize) -> usize {
+        declared.min(self.remaining)
     }
 }
 
@@ -135,9 +148,9 @@ fn parse_file(text: &str) -> Result<RawFile> {
     }
     let n_planes: usize = parse_num(n, counts[0], "plane count")?;
     let _n_labels: usize = parse_num(n, counts[1], "label count")?;
-    let mut planes = Vec::with_capacity(n_planes.min(4096));
+    let mut planes = Vec::with_capacity(lines.capacity(n_planes));
     for pi in 0..n_planes {
-        let plane = parse_plane(&mut lines, pi).map_err(|e| e.at_plane(pi))?;
+        let plane = parse_plane(&mut lines, pi, n_planes).map_err(|e| e.at_plane(pi))?;
         planes.push(plane);
     }
     if let Some((n, _)) = lines.iter.next() {
@@ -155,10 +168,11 @@ fn parse_file(text: &str) -> Result<RawFile> {
     Ok(RawFile { planes })
 }
 
-fn parse_plane(lines: &mut Lines, pi: usize) -> Result<RawPlane> {
+fn parse_plane(lines: &mut Lines, pi: usize, n_planes: usize) -> Result<RawPlane> {
     let (n, h) = lines.next(|| ErrorKind::CountMismatch {
         what: "planes".into(),
-        declared: pi + 1,
+        // The header's count (this said `pi + 1`, e.g. "the header says 2" for 2^31 planes).
+        declared: n_planes,
         found: pi,
     })?;
     if h.len() != 7 {
@@ -184,7 +198,7 @@ fn parse_plane(lines: &mut Lines, pi: usize) -> Result<RawPlane> {
             "plane coefficient",
         )?;
     }
-    let mut vertices = Vec::with_capacity(n_verts.min(1 << 20));
+    let mut vertices = Vec::with_capacity(lines.capacity(n_verts));
     for vi in 0..n_verts {
         let (ln, t) = lines.next(|| ErrorKind::CountMismatch {
             what: "vertices of the plane".into(),
@@ -215,7 +229,7 @@ fn parse_plane(lines: &mut Lines, pi: usize) -> Result<RawPlane> {
         }
         vertices.push(p);
     }
-    let mut components = Vec::with_capacity(n_comps.min(1 << 16));
+    let mut components = Vec::with_capacity(lines.capacity(n_comps));
     for ci in 0..n_comps {
         let (ln, t) = lines.next(|| ErrorKind::CountMismatch {
             what: "components of the plane".into(),
@@ -490,6 +504,13 @@ fn build(files: Vec<(PathBuf, f64, RawFile)>, names: &LabelNames) -> Result<Sequ
             let p = paths[i].clone();
             e.in_file(&p)
         }
+        // Errors of the whole sequence (no class at all, a class never contoured) have no
+        // timestep; with a single file they still belong to it, so name it (`read_sequence`
+        // names the manifest otherwise).
+        _ if paths.len() == 1 => {
+            let p = paths[0].clone();
+            e.in_file(&p)
+        }
         _ => e,
     })
 }
@@ -536,5 +557,6 @@ pub fn read_sequence(manifest: &Path, names: &LabelNames) -> Result<Sequence> {
             DataError::new(ErrorKind::Empty("the manifest lists no file".into())).in_file(manifest),
         );
     }
-    build(files, names)
+    // Errors that name no file of their own (of the whole sequence) name the manifest.
+    build(files, names).map_err(|e| e.in_file(manifest))
 }

@@ -31,8 +31,12 @@ impl LabelNames {
             let split = line
                 .find(|c: char| c.is_whitespace() || c == ',')
                 .ok_or_else(|| at(format!("expected `<label> <name>`, found `{line}`")))?;
-            let (value, name) = line.split_at(split);
-            let name = name[1..].trim().trim_start_matches(',').trim();
+            let (value, rest) = line.split_at(split);
+            // The separator is the whole run of whitespace and commas after the value. (This
+            // sliced off one byte, `rest[1..]`, which panicked inside multi-byte whitespace such
+            // as U+00A0 or U+3000; and its "one char, spaces, commas, spaces" kept the leading
+            // comma of `5 , ,x`, a name `to_text` could not write back.)
+            let name = rest.trim_start_matches(|c: char| c.is_whitespace() || c == ',');
             let value: i32 = value
                 .parse()
                 .map_err(|_| at(format!("label `{value}` is not an integer")))?;

@@ -5,9 +5,10 @@
 //! decompressed by content (gzip magic), not by name. Reading into a [`Sequence`] goes through
 //! [`super::reslice`]; see `docs/data-format.md` for the protocol.
 
+use std::io::Read;
 use std::path::Path;
 
-use nifti::{Endianness, InMemNiftiObject, NiftiHeader, NiftiObject, NiftiType};
+use nifti::{Endianness, NiftiHeader, NiftiType};
 
 use super::error::{DataError, ErrorKind, Result};
 use super::labels::LabelNames;
@@ -48,17 +49,47 @@ impl LabelVolume {
     }
 }
 
+/// Bytes of a NIfTI-1 header; the voxel data starts at `vox_offset`, at least 4 bytes later
+/// (the extender).
+const HEADER_BYTES: usize = 348;
+
+/// Deflate's largest expansion (one 258-byte match per two bits): a `.nii.gz` of n bytes cannot
+/// hold more than this × n bytes of NIfTI.
+const MAX_DEFLATE_RATIO: usize = 1032;
+
 /// Reads a label volume.
+///
+/// Every size in the header is checked, with overflow-checked arithmetic, against what the file
+/// can hold before anything is allocated or decompressed for it: voxels are read from
+/// `vox_offset` (the extensions before it are skipped unread), as many bytes as the header's
+/// dimensions and datatype need, and a gzip stream is read to its end so its checksum is verified.
 pub fn read_volume(path: &Path) -> Result<LabelVolume> {
     let at = |kind: ErrorKind| DataError::new(kind).in_file(path);
+    let unreadable =
+        |e: &dyn std::fmt::Display| at(ErrorKind::Nifti(format!("unreadable or truncated: {e}")));
     let bytes = std::fs::read(path).map_err(|e| at(e.into()))?;
-    let object = if bytes.starts_with(&[0x1f, 0x8b]) {
-        InMemNiftiObject::from_reader(flate2::read::GzDecoder::new(&bytes[..]))
+    let gz = bytes.starts_with(&[0x1f, 0x8b]);
+    // How many bytes of NIfTI the file can hold: the bound for every size the header claims.
+    let capacity = if gz {
+        bytes.len().saturating_mul(MAX_DEFLATE_RATIO)
     } else {
-        InMemNiftiObject::from_reader(&bytes[..])
+        bytes.len()
+    };
+    // Streamed, not read through `InMemNiftiObject`: that reserves whatever the header's dims
+    // (and each extension's size field) claim before reading, e.g. terabytes for 32767³ voxels
+    // in a 400-byte file, and reads the voxels right after the extensions instead of at
+    // `vox_offset`.
+    let mut source: Box<dyn Read + '_> = if gz {
+        Box::new(flate2::read::GzDecoder::new(&bytes[..]))
+    } else {
+        Box::new(&bytes[..])
+    };
+    let header = NiftiHeader::from_reader(&mut source).map_err(|e| unreadable(&e))?;
+    if header.magic == *b"ni1\0" {
+        return Err(at(ErrorKind::Nifti(
+            "a header-only file (magic \"ni1\"); give the single-file .nii or .nii.gz".into(),
+        )));
     }
-    .map_err(|e| at(ErrorKind::Nifti(format!("unreadable or truncated: {e}"))))?;
-    let header = object.header().clone();
     let datatype = header.data_type().map_err(|e| {
         at(ErrorKind::Nifti(format!(
             "unknown datatype code {}: {e}",
@@ -68,7 +99,29 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
     let (dims, frames) = dimensions(&header).map_err(at)?;
     let affine = affine(&header).map_err(at)?;
     check_scaling(&header).map_err(at)?;
-    let raw = object.into_volume().into_raw_data();
+    let (start, size) = data_extent(&header, datatype, dims, frames, capacity, gz).map_err(at)?;
+    let skip = (start - HEADER_BYTES) as u64;
+    let skipped = std::io::copy(&mut (&mut source).take(skip), &mut std::io::sink())
+        .map_err(|e| unreadable(&e))?;
+    // Exact for a plain file (its length was checked); a gzip stream grows with what it holds.
+    let mut raw = Vec::with_capacity(if gz { 0 } else { size });
+    (&mut source)
+        .take(size as u64)
+        .read_to_end(&mut raw)
+        .map_err(|e| unreadable(&e))?;
+    if skipped < skip || raw.len() < size {
+        let [nx, ny, nz] = dims;
+        return Err(at(ErrorKind::Nifti(format!(
+            "truncated: {} of the {size} bytes of voxel data (dim {nx}×{ny}×{nz}×{frames} of \
+             {datatype:?}) at vox_offset {start}",
+            raw.len()
+        ))));
+    }
+    if gz {
+        // Whatever follows the voxels, and the gzip trailer: verifies the CRC, so a corrupted
+        // stream is an error rather than silently wrong labels.
+        std::io::copy(&mut source, &mut std::io::sink()).map_err(|e| unreadable(&e))?;
+    }
     let labels = decode(&raw, datatype, header.endianness).map_err(at)?;
     let expected = dims.iter().product::<usize>() * frames;
     if labels.len() != expected {
@@ -90,6 +143,64 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
         frame_interval: if dt == 0.0 { 1.0 } else { dt },
         labels,
     })
+}
+
+/// Where the voxel data lies: (first byte, bytes), checked against the `capacity` of the file
+/// with overflow-checked arithmetic. Only integer voxel types are accepted.
+fn data_extent(
+    h: &NiftiHeader,
+    t: NiftiType,
+    dims: [usize; 3],
+    frames: usize,
+    capacity: usize,
+    gz: bool,
+) -> std::result::Result<(usize, usize), ErrorKind> {
+    let bytes_per_voxel: usize = match t {
+        NiftiType::Uint8 | NiftiType::Int8 => 1,
+        NiftiType::Int16 | NiftiType::Uint16 => 2,
+        NiftiType::Int32 | NiftiType::Uint32 => 4,
+        NiftiType::Int64 | NiftiType::Uint64 => 8,
+        other => {
+            return Err(ErrorKind::Nifti(format!(
+                "voxel type {other:?} is not an integer type; a label volume needs integer labels"
+            )))
+        }
+    };
+    if i32::from(h.bitpix) != 8 * bytes_per_voxel as i32 {
+        return Err(ErrorKind::Nifti(format!(
+            "bitpix {} disagrees with datatype {t:?} ({} bits)",
+            h.bitpix,
+            8 * bytes_per_voxel
+        )));
+    }
+    let offset = h.vox_offset;
+    if !(offset.is_finite() && offset >= 0.0) {
+        return Err(ErrorKind::Nifti(format!(
+            "vox_offset {offset} is not a byte offset"
+        )));
+    }
+    // Below the header and extender means right after them (as the nifti crate reads it).
+    let start = (offset as usize).max(HEADER_BYTES + 4);
+    let size = dims
+        .iter()
+        .chain([&frames])
+        .try_fold(bytes_per_voxel, |n, &d| n.checked_mul(d));
+    let end = size.and_then(|n| n.checked_add(start));
+    match (size, end) {
+        (Some(size), Some(end)) if end <= capacity => Ok((start, size)),
+        _ => {
+            let [nx, ny, nz] = dims;
+            let limit = if gz {
+                ", deflate's limit for its size"
+            } else {
+                ""
+            };
+            Err(ErrorKind::Nifti(format!(
+                "dim {nx}×{ny}×{nz}×{frames} of {t:?} at vox_offset {start} needs more bytes \
+                 than the file can hold ({capacity}{limit})"
+            )))
+        }
+    }
 }
 
 /// Reads a label volume and reslices it into a sequence (see [`super::reslice`]).

@@ -32,7 +32,8 @@ pub struct ResliceOptions {
     pub frames: FrameRange,
     /// Labels to use, one class each; `None` uses every nonzero label present.
     pub labels: Option<Vec<i32>>,
-    /// In-plane sampling step in world units; `None` means half the smallest voxel spacing.
+    /// In-plane sampling step in world units; `None` means half the smallest voxel spacing, or
+    /// the labelled box's longest diagonal / 1536 where that is coarser.
     pub pixel: Option<f64>,
 }
 
@@ -50,6 +51,15 @@ impl Default for ResliceOptions {
 
 /// Grid points per plane axis above which reslicing refuses (a mistaken `pixel`).
 const MAX_GRID: usize = 8192;
+
+/// Grid points per plane above which reslicing refuses: sampling keeps a 128-byte stencil per
+/// point, so this bounds one plane's memory at 2 GiB whatever the axes' split.
+const MAX_GRID_POINTS: usize = 1 << 24;
+
+/// Grid points along the labelled box's diagonal that the default pixel never exceeds: half the
+/// smallest voxel spacing over a box that is long along coarsely sampled axes (e.g. 1 × 256 ×
+/// 256 mm voxels) would otherwise ask for gigabytes per plane for a handful of voxels.
+const DEFAULT_DIAGONAL_POINTS: f64 = 1536.0;
 
 /// A plane of the protocol and its sampling grid.
 struct GridPlane {
@@ -173,10 +183,6 @@ fn protocol_planes(
     let spacing = (0..3)
         .map(|c| dot(column(c), column(c)).sqrt())
         .fold(f64::INFINITY, f64::min);
-    let pixel = o.pixel.unwrap_or(0.5 * spacing);
-    if !(pixel.is_finite() && pixel > 0.0) {
-        return Err(ErrorKind::Option(format!("pixel size {pixel} must be positive")).into());
-    }
     let z_axis = normalize(column(2));
     let centre_voxel: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]) as f64);
     let centre = v.to_world(centre_voxel);
@@ -191,6 +197,22 @@ fn protocol_planes(
             }))
         })
         .collect();
+    // Every plane's grid lies within the box, so its longest diagonal bounds both grid axes.
+    let diagonal = corners
+        .iter()
+        .flat_map(|a| {
+            corners
+                .iter()
+                .map(move |b| std::array::from_fn(|k| a[k] - b[k]))
+        })
+        .map(|d: [f64; 3]| dot(d, d).sqrt())
+        .fold(0.0, f64::max);
+    let pixel = o
+        .pixel
+        .unwrap_or_else(|| (0.5 * spacing).max(diagonal / DEFAULT_DIAGONAL_POINTS));
+    if !(pixel.is_finite() && pixel > 0.0) {
+        return Err(ErrorKind::Option(format!("pixel size {pixel} must be positive")).into());
+    }
     let mut planes = Vec::new();
     let mut add = |origin: [f64; 3], u: [f64; 3], v: [f64; 3]| -> Result<()> {
         let mut plane = Plane {
@@ -211,9 +233,10 @@ fn protocol_planes(
         }
         let n: [usize; 2] =
             std::array::from_fn(|k| ((pmax[k] - pmin[k]) / pixel).ceil() as usize + 1);
-        if n.iter().any(|&m| m > MAX_GRID) {
+        if n.iter().any(|&m| m > MAX_GRID) || n[0] * n[1] > MAX_GRID_POINTS {
             return Err(ErrorKind::Option(format!(
-                "pixel size {pixel} gives a {}×{} grid per plane (limit {MAX_GRID})",
+                "pixel size {pixel} gives a {}×{} grid per plane (limits: {MAX_GRID} per axis, \
+                 {MAX_GRID_POINTS} points)",
                 n[0], n[1]
             ))
             .into());
