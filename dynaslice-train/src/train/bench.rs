@@ -8,7 +8,8 @@
 //! Sines, the loss and Adam are not counted (they are what makes the step slower than its
 //! products).
 
-use super::loss::{ContourSample, LossWeights, PlaneSample};
+use super::loss::{ContourSample, PlaneSample};
+use super::trainer::TrainOptions;
 use super::matmul::{matmul, Mat, Op};
 use super::network::{Network, OMEGA_0};
 use super::objective::{Batch, Objective, SpaceTimeScheme};
@@ -135,12 +136,7 @@ pub fn step(
     let batch = random_batch(k, per_class, space, 2);
     let max_set = batch.contour_x.len().max(batch.space_x.len());
     let mut objective = Objective::with_scheme(&net, threads, max_set, scheme);
-    let weights = LossWeights {
-        orientation: 0.1,
-        plane: 0.1,
-        regulariser: 0.05,
-        alpha: 50.0,
-    };
+    let weights = TrainOptions::default().loss;
     let mut grad = vec![0.0; net.params.len()];
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
