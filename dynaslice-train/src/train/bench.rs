@@ -9,10 +9,10 @@
 //! products).
 
 use super::loss::{ContourSample, PlaneSample};
-use super::trainer::TrainOptions;
 use super::matmul::{matmul, Mat, Op};
 use super::network::{Network, OMEGA_0};
 use super::objective::{Batch, Objective, SpaceTimeScheme};
+use super::trainer::TrainOptions;
 use dynaslice_core::Layout;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
