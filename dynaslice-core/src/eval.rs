@@ -20,7 +20,7 @@
 //! like any other (the network extrapolates).
 
 use crate::format::MAX_WIDTH;
-use crate::kernel::{self, Kernels, Product};
+use crate::kernel::{self, widen_into, FirstLayer, Kernels, Product};
 use crate::label::argmin_label;
 use crate::layout::INPUT_DIM;
 use crate::model::{Model, Weights};
@@ -49,8 +49,8 @@ pub struct Scratch {
     a: [f32; BLOCK_ROWS * MAX_WIDTH],
     b: [f32; BLOCK_ROWS * MAX_WIDTH],
     panel: [f32; PANEL_COLS * MAX_WIDTH],
+    bias: [f32; MAX_WIDTH],
     row: [f32; MAX_WIDTH],
-    cos: [f32; MAX_WIDTH],
 }
 
 // SAFETY: all fields are f32 arrays, for which all-zero bytes are a valid value.
@@ -63,8 +63,8 @@ impl Scratch {
             a: [0.0; BLOCK_ROWS * MAX_WIDTH],
             b: [0.0; BLOCK_ROWS * MAX_WIDTH],
             panel: [0.0; PANEL_COLS * MAX_WIDTH],
+            bias: [0.0; MAX_WIDTH],
             row: [0.0; MAX_WIDTH],
-            cos: [0.0; MAX_WIDTH],
         }
     }
 
@@ -81,13 +81,15 @@ impl Default for Scratch {
     }
 }
 
-/// Borrowed working buffers of one forward pass.
+/// Borrowed working buffers of one forward pass: the layer inputs and outputs (`a`, `b`), the
+/// packed weight panel of the SIMD kernels, the current layer's bias widened to f32, and one
+/// row of scratch (the activation's cosines; the portable product's widened weight row).
 struct Buffers<'s> {
     a: &'s mut [f32],
     b: &'s mut [f32],
     panel: &'s mut [f32],
+    bias: &'s mut [f32],
     row: &'s mut [f32],
-    cos: &'s mut [f32],
 }
 
 /// Where a batch writes its answers; `f` is required, derivatives are optional.
@@ -273,14 +275,14 @@ impl Model<'_> {
     fn point_rows<const ROWS: usize>(&self, x: [f32; 3], t: f32, tangents: Tangents, out: Outputs) {
         let mut a = [[0.0f32; MAX_WIDTH]; ROWS];
         let mut b = [[0.0f32; MAX_WIDTH]; ROWS];
+        let mut bias = [0.0f32; MAX_WIDTH];
         let mut row = [0.0f32; MAX_WIDTH];
-        let mut cos = [0.0f32; MAX_WIDTH];
         let buffers = Buffers {
             a: a.as_flattened_mut(),
             b: b.as_flattened_mut(),
             panel: &mut [],
+            bias: &mut bias,
             row: &mut row,
-            cos: &mut cos,
         };
         let input = [self.domain.normalise(x, t)];
         let result = self.forward(kernel::PORTABLE, &input, tangents, buffers);
@@ -330,8 +332,8 @@ impl Model<'_> {
                 a: &mut scratch.a,
                 b: &mut scratch.b,
                 panel: &mut scratch.panel,
+                bias: &mut scratch.bias,
                 row: &mut scratch.row,
-                cos: &mut scratch.cos,
             };
             let rows = self.forward(kernels, &inputs[..xs.len()], tangents, buffers);
             sink(block * per_block, xs.len(), rows);
@@ -358,8 +360,8 @@ impl Model<'_> {
             a,
             b,
             panel,
+            bias,
             row,
-            cos,
         } = buf;
         let (mut cur, mut next) = (a, b);
 
@@ -368,29 +370,15 @@ impl Model<'_> {
         let w0 = self
             .weights
             .sub(layout.layer_offset(0), (INPUT_DIM + 1) * width);
-        let bias = weight_row(w0, INPUT_DIM, width, row);
-        for z in cur[..points * width].chunks_exact_mut(width) {
-            z.copy_from_slice(bias);
-        }
-        for d in 0..INPUT_DIM {
-            let w = weight_row(w0, d, width, row);
-            if d == 3 {
-                let m = self.omega_t_max;
-                w.iter_mut().for_each(|v| *v = v.clamp(-m, m));
-            }
-            for (z, input) in cur[..points * width].chunks_exact_mut(width).zip(inputs) {
-                for (zv, wv) in z.iter_mut().zip(w.iter()) {
-                    *zv += input[d] * wv;
-                }
-            }
-            if d < n_tan {
-                let group = &mut cur[(1 + d) * points * width..(2 + d) * points * width];
-                group
-                    .chunks_exact_mut(width)
-                    .for_each(|z| z.copy_from_slice(w));
-            }
-        }
-        (kernels.activate)(&mut cur[..rows * width], points, n_tan, width, cos);
+        let first = FirstLayer {
+            w: w0,
+            omega_t_max: self.omega_t_max,
+            inputs,
+            n_tan,
+            width,
+        };
+        (kernels.first_layer)(&first, cur);
+        (kernels.activate)(&mut cur[..rows * width], points, n_tan, width, row);
 
         // Hidden sine layers, then the affine output layer.
         for l in 1..layout.num_layers() {
@@ -400,23 +388,20 @@ impl Model<'_> {
                 self.weights.sub(offset + fan_in * fan_out, fan_out),
                 0,
                 fan_out,
-                row,
+                bias,
             );
-            let (primal, tangent) = next[..rows * fan_out].split_at_mut(points * fan_out);
-            primal
-                .chunks_exact_mut(fan_out)
-                .for_each(|z| z.copy_from_slice(bias));
-            tangent.fill(0.0);
             let product = Product {
                 a: &cur[..rows * fan_in],
                 rows,
                 kdim: fan_in,
                 b: self.weights.sub(offset, fan_in * fan_out),
                 n: fan_out,
+                bias,
+                bias_rows: points,
             };
             (kernels.product)(&product, next, panel, row);
             if l < layout.num_sine_layers() {
-                (kernels.activate)(&mut next[..rows * fan_out], points, n_tan, fan_out, cos);
+                (kernels.activate)(&mut next[..rows * fan_out], points, n_tan, fan_out, row);
             }
             core::mem::swap(&mut cur, &mut next);
         }
@@ -498,12 +483,9 @@ fn check_len(got: usize, expected: usize) -> Result<(), Error> {
 }
 
 /// Row `r` (of `len` scalars) of a weight block, copied to f32 in `tmp`.
-fn weight_row<'t>(w: Weights, r: usize, len: usize, tmp: &'t mut [f32]) -> &'t mut [f32] {
+fn weight_row<'t>(w: Weights, r: usize, len: usize, tmp: &'t mut [f32]) -> &'t [f32] {
     let out = &mut tmp[..len];
-    match w.sub(r * len, len) {
-        Weights::F32(src) => out.copy_from_slice(src),
-        Weights::F16(src) => out.iter_mut().zip(src).for_each(|(o, h)| *o = h.to_f32()),
-    }
+    widen_into(w.sub(r * len, len), out);
     out
 }
 
@@ -551,7 +533,9 @@ mod tests {
                 want.1.extend(g.iter().flatten().copied());
                 want.2.extend(d);
             }
-            for kernels in all_available() {
+            // Every row count per block (64, 16·4, 12·5) and its remainder (77 points).
+            let modes = [Tangents::None, Tangents::Space, Tangents::SpaceTime];
+            for (kernels, tangents) in all_available().flat_map(|k| modes.map(|m| (k, m))) {
                 let mut scratch = Scratch::boxed();
                 let (mut f, mut g, mut d) =
                     (vec![0.0; n * k], vec![[0.0; 3]; n * k], vec![0.0; n * k]);
@@ -560,22 +544,28 @@ mod tests {
                     &mut scratch,
                     &xyz,
                     &t,
-                    Tangents::SpaceTime,
+                    tangents,
                     |first, points, rows| {
                         let out = Outputs {
                             f: &mut f,
-                            grad: Some(&mut g),
-                            dfdt: Some(&mut d),
+                            grad: (tangents != Tangents::None).then_some(&mut g[..]),
+                            dfdt: (tangents == Tangents::SpaceTime).then_some(&mut d[..]),
                         };
-                        model.write_outputs(rows, first, points, Tangents::SpaceTime, out);
+                        model.write_outputs(rows, first, points, tangents, out);
                     },
                 );
                 let got_g: Vec<f32> = g.iter().flatten().copied().collect();
-                for (name, got, want) in [
+                let checks = [
                     ("f", &f, &want.0),
                     ("grad", &got_g, &want.1),
                     ("dfdt", &d, &want.2),
-                ] {
+                ];
+                let outputs = match tangents {
+                    Tangents::None => 1,
+                    Tangents::Space => 2,
+                    Tangents::SpaceTime => 3,
+                };
+                for (name, got, want) in checks.into_iter().take(outputs) {
                     for (i, (a, b)) in got.iter().zip(want.iter()).enumerate() {
                         assert!(
                             (a - b).abs() <= 2e-4 * b.abs().max(1.0),

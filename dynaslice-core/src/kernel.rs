@@ -1,29 +1,36 @@
-//! The two hot loops of evaluation, per instruction set: the layer product C += A·Wᵀ and the
-//! sine activation with its forward-mode tangents.
+//! The hot loops of evaluation, per instruction set: the first layer, the layer product
+//! C = A·Wᵀ + b and the sine activation with its forward-mode tangents.
 //!
 //! A batch block holds up to [`crate::eval::BLOCK_ROWS`] rows (points, and their tangent rows),
 //! so each weight is loaded once per block rather than once per point; the SIMD kernels are
 //! BLIS-style register tiles (AVX-512: 8 rows × 32 columns in 16 zmm accumulators; AVX2:
 //! 6 rows × 16 columns in 12 ymm accumulators) over a packed 32- or 16-column panel of Wᵀ, which
-//! is also where f16 weights are widened to f32. A narrow last panel (e.g. the K output
-//! columns) is zero-padded and its tiles read and write C through lane masks. The portable
+//! is also where f16 weights are widened to f32. A last panel of one vector or less (the K ≤ 16
+//! output columns of most models) is packed one vector wide and tiled with twice the rows, so
+//! no multiply-add runs on padding (half the output layer's work at K = 8 on AVX-512). The accumulators start from the bias (primal
+//! rows) or zero (tangent rows), so C is written once and never read. A narrow last panel (e.g.
+//! the K output columns) is zero-padded and its tiles write C through lane masks. The portable
 //! kernel is an axpy loop that compilers vectorise for any target (SSE2, NEON, Helium) and is
 //! what single points use. Measurements: docs/performance.md.
 //!
 //! With the `std` feature the AVX kernels are chosen at run time (never `target-cpu=native`);
 //! without it, only when the build enables the target features at compile time.
 
+use crate::layout::INPUT_DIM;
 use crate::model::Weights;
-use crate::sine::{sin, sin_cos};
+use crate::sine::{sin_cos_with, sin_with, MulAdd, Separate};
 
-/// C[r][0..n] += Σ_k A[r][k] · B[k][0..n] for r < rows, with A row-major (`rows × kdim`), B the
-/// layer's Wᵀ (`kdim × n`) and C row-major (`rows × n`).
+/// C[r][0..n] = β_r + Σ_k A[r][k] · B[k][0..n] for r < rows, with A row-major (`rows × kdim`),
+/// B the layer's Wᵀ (`kdim × n`), C row-major (`rows × n`), and β_r the bias for the first
+/// `bias_rows` rows (the primal rows: z = Wh + b) and zero for the rest (tangents: ż = Wḣ).
 pub(crate) struct Product<'a, 'w> {
     pub a: &'a [f32],
     pub rows: usize,
     pub kdim: usize,
     pub b: Weights<'w>,
     pub n: usize,
+    pub bias: &'a [f32],
+    pub bias_rows: usize,
 }
 
 impl Product<'_, '_> {
@@ -32,16 +39,35 @@ impl Product<'_, '_> {
     fn fits(&self, c: &[f32]) -> bool {
         self.a.len() >= self.rows * self.kdim
             && self.b.len() >= self.kdim * self.n
+            && self.bias.len() >= self.n
             && c.len() >= self.rows * self.n
     }
 }
+
+/// The first layer's inputs: `w` holds rows W_x, W_y, W_z, W_t, φ of `width` scalars each
+/// (Eq. 2), applied to `inputs` (normalised x, y, z, t) with W_t clamped to ±`omega_t_max`
+/// (Eq. 4); the first `n_tan` inputs carry tangents.
+pub(crate) struct FirstLayer<'a, 'w> {
+    pub w: Weights<'w>,
+    pub omega_t_max: f32,
+    pub inputs: &'a [[f32; INPUT_DIM]],
+    pub n_tan: usize,
+    pub width: usize,
+}
+
+/// Columns of the first layer computed per pass: one AVX-512 vector, two AVX2 vectors, so the
+/// five weight rows of a chunk stay in registers.
+const FIRST_CHUNK: usize = 16;
 
 /// The kernels of one instruction set.
 #[derive(Clone, Copy)]
 pub(crate) struct Kernels {
     /// Name reported by benchmarks.
     pub name: &'static str,
-    /// C += A·B; `panel` and `row` are scratch of at least `MAX_WIDTH * 32` and `MAX_WIDTH`.
+    /// The first layer's pre-activations into `out`: z = φ + Σ_d W_d u_d for every point
+    /// (primal rows), then W_d as the tangent rows of input d (∂z/∂u_d = W_d).
+    pub first_layer: fn(&FirstLayer, &mut [f32]),
+    /// C = A·B + β; `panel` and `row` are scratch of at least `MAX_WIDTH * 32` and `MAX_WIDTH`.
     pub product: fn(&Product, &mut [f32], &mut [f32], &mut [f32]),
     /// Sine activation of `points` primal rows of `width` values and multiplication of their
     /// `n_tan` tangent row groups by the cosine (ḣ' = cos z ⊙ ż); `cos` is `width` scratch.
@@ -51,8 +77,9 @@ pub(crate) struct Kernels {
 /// Portable kernels (any target).
 pub(crate) const PORTABLE: Kernels = Kernels {
     name: "portable",
+    first_layer: first_layer_generic,
     product: product_portable,
-    activate: activate_generic,
+    activate: activate_generic::<Separate>,
 };
 
 /// The best kernels for this CPU.
@@ -132,10 +159,58 @@ fn b_row<'t>(b: Weights<'t>, k: usize, n: usize, tmp: &'t mut [f32]) -> &'t [f32
     }
 }
 
+/// `w` as f32 into `out` (as many values as both hold).
+pub(crate) fn widen_into(w: Weights, out: &mut [f32]) {
+    match w {
+        Weights::F32(src) => out.iter_mut().zip(src).for_each(|(o, &v)| *o = v),
+        Weights::F16(src) => out.iter_mut().zip(src).for_each(|(o, &h)| *o = widen(h)),
+    }
+}
+
+/// One pass over the output in chunks of [`FIRST_CHUNK`] columns; the sum is taken in the
+/// order φ, x, y, z, t on every path, so all kernels give the same bits.
+#[inline(always)]
+fn first_layer_generic(l: &FirstLayer, out: &mut [f32]) {
+    let (points, width) = (l.inputs.len(), l.width);
+    if l.w.len() < (INPUT_DIM + 1) * width || out.len() < points * (1 + l.n_tan) * width {
+        return;
+    }
+    let m = l.omega_t_max;
+    for j0 in (0..width).step_by(FIRST_CHUNK) {
+        let cols = FIRST_CHUNK.min(width - j0);
+        let mut w = [[0.0f32; FIRST_CHUNK]; INPUT_DIM + 1];
+        for (d, wd) in w.iter_mut().enumerate() {
+            widen_into(l.w.sub(d * width + j0, cols), wd);
+        }
+        w[3].iter_mut().for_each(|v| *v = v.clamp(-m, m));
+        let [wx, wy, wz, wt, phi] = &w;
+        for (p, u) in l.inputs.iter().enumerate() {
+            let z = &mut out[p * width + j0..p * width + j0 + cols];
+            let terms = phi.iter().zip(wx).zip(wy).zip(wz).zip(wt);
+            for (zv, ((((f, a), b), c), d)) in z.iter_mut().zip(terms) {
+                *zv = f + u[0] * a + u[1] * b + u[2] * c + u[3] * d;
+            }
+        }
+        for (d, wd) in w.iter().enumerate().take(l.n_tan) {
+            for p in 0..points {
+                let start = ((1 + d) * points + p) * width + j0;
+                out[start..start + cols].copy_from_slice(&wd[..cols]);
+            }
+        }
+    }
+}
+
 /// k outer so each row of B is read (and widened) once.
 fn product_portable(p: &Product, c: &mut [f32], _panel: &mut [f32], row: &mut [f32]) {
     if !p.fits(c) {
         return;
+    }
+    for (r, c_row) in c[..p.rows * p.n].chunks_exact_mut(p.n).enumerate() {
+        if r < p.bias_rows {
+            c_row.copy_from_slice(&p.bias[..p.n]);
+        } else {
+            c_row.fill(0.0);
+        }
     }
     for k in 0..p.kdim {
         let brow = b_row(p.b, k, p.n, row);
@@ -148,16 +223,22 @@ fn product_portable(p: &Product, c: &mut [f32], _panel: &mut [f32], row: &mut [f
     }
 }
 #[inline(always)]
-fn activate_generic(buf: &mut [f32], points: usize, n_tan: usize, width: usize, cos: &mut [f32]) {
+fn activate_generic<M: MulAdd>(
+    buf: &mut [f32],
+    points: usize,
+    n_tan: usize,
+    width: usize,
+    cos: &mut [f32],
+) {
     let (primal, tangents) = buf.split_at_mut(points * width);
     let cos = &mut cos[..width];
     for (p, z) in primal.chunks_exact_mut(width).enumerate() {
         if n_tan == 0 {
-            z.iter_mut().for_each(|v| *v = sin(*v));
+            z.iter_mut().for_each(|v| *v = sin_with::<M>(*v));
             continue;
         }
         for (v, c) in z.iter_mut().zip(cos.iter_mut()) {
-            (*v, *c) = sin_cos(*v);
+            (*v, *c) = sin_cos_with::<M>(*v);
         }
         for d in 0..n_tan {
             let start = (d * points + p) * width;
@@ -174,17 +255,20 @@ mod x86 {
     //!
     //! Safety: these functions are only reachable through [`AVX2`] and [`AVX512`], which
     //! [`super::best`] hands out only after detecting the target features they enable.
-    use super::{activate_generic, widen, Kernels, Product};
+    use super::{activate_generic, first_layer_generic, widen, FirstLayer, Kernels, Product};
     use crate::model::Weights;
+    use crate::sine::Fused;
     use core::arch::x86_64::*;
 
     pub(crate) const AVX512: Kernels = Kernels {
         name: "avx512",
+        first_layer: first_layer_avx512,
         product: product_avx512,
         activate: activate_avx512,
     };
     pub(crate) const AVX2: Kernels = Kernels {
         name: "avx2",
+        first_layer: first_layer_avx2,
         product: product_avx2,
         activate: activate_avx2,
     };
@@ -212,13 +296,30 @@ mod x86 {
         unsafe { activate_256(buf, points, n_tan, width, cos) }
     }
 
+    fn first_layer_avx512(l: &FirstLayer, out: &mut [f32]) {
+        // SAFETY: as above; the body is plain Rust compiled with wider vectors.
+        unsafe { first_layer_512(l, out) }
+    }
+    fn first_layer_avx2(l: &FirstLayer, out: &mut [f32]) {
+        // SAFETY: as above.
+        unsafe { first_layer_256(l, out) }
+    }
+    #[target_feature(enable = "avx512f,avx2,fma,f16c")]
+    fn first_layer_512(l: &FirstLayer, out: &mut [f32]) {
+        first_layer_generic(l, out)
+    }
+    #[target_feature(enable = "avx2,fma,f16c")]
+    fn first_layer_256(l: &FirstLayer, out: &mut [f32]) {
+        first_layer_generic(l, out)
+    }
+
     #[target_feature(enable = "avx512f,avx2,fma,f16c")]
     fn activate_512(buf: &mut [f32], points: usize, n_tan: usize, width: usize, cos: &mut [f32]) {
-        activate_generic(buf, points, n_tan, width, cos)
+        activate_generic::<Fused>(buf, points, n_tan, width, cos)
     }
     #[target_feature(enable = "avx2,fma,f16c")]
     fn activate_256(buf: &mut [f32], points: usize, n_tan: usize, width: usize, cos: &mut [f32]) {
-        activate_generic(buf, points, n_tan, width, cos)
+        activate_generic::<Fused>(buf, points, n_tan, width, cos)
     }
 
     /// Copies columns `j0..j0 + cols` of B into `panel` (`kdim × NR`, contiguous), widening
@@ -245,9 +346,11 @@ mod x86 {
     #[inline(always)]
     fn pack_row<const NR: usize, T: Copy>(dst: &mut [f32], src: &[T], conv: impl Fn(T) -> f32) {
         // A full row has a fixed length, which compiles to a few vector moves (a copy of
-        // run-time length called memmove once per row: 15% of the time at width 256).
+        // run-time length called memmove once per row: 15% of the time at width 256; an
+        // element-wise zip over the fixed-length chunks compiled to 32 scalar moves per row,
+        // 20% of the instructions of a 64-wide layer).
         if let (Some(dst), Some(src)) = (dst.first_chunk_mut::<NR>(), src.first_chunk::<NR>()) {
-            dst.iter_mut().zip(src).for_each(|(d, &x)| *d = conv(x));
+            *dst = src.map(conv);
         } else {
             let (dst, pad) = dst.split_at_mut(src.len());
             dst.iter_mut().zip(src).for_each(|(d, &x)| *d = conv(x));
@@ -255,45 +358,123 @@ mod x86 {
         }
     }
 
+    /// One packed column panel of Wᵀ as the tiles read it: `kdim × 2·lanes` values at `data`,
+    /// the lane masks of the columns that exist, and those columns' bias.
+    struct Panel<V, M> {
+        data: *const f32,
+        masks: [M; 2],
+        bias: [V; 2],
+    }
+
     macro_rules! tiled_product {
-        ($name:ident, $tile:ident, $feat:literal, $vec:ty, $lanes:literal, $mr:literal,
-         $mask:ty, $mask_for:ident, $loadc:ident, $storec:ident,
-         $load:ident, $set1:ident, $fmadd:ident) => {
-            /// Register tile: rows `r0..r0 + R` × two vectors of the packed panel's columns,
-            /// reading and writing C only where `masks` are set (the last panel may be narrow).
+        ($name:ident, $tile:ident, $step:ident, $feat:literal, $vec:ty, $lanes:literal,
+         $mr:literal, $mask:ty, $mask_for:ident, $storec:ident,
+         $load:ident, $zero:ident, $set1:ident, $fmadd:ident) => {
+            /// Register tile: rows `r0..r0 + R` × NV vectors of the packed panel's columns,
+            /// starting from the panel's bias in the first `bias_rows` rows and from zero in
+            /// the others, writing C only where the panel's masks are set (the last panel may
+            /// be narrow).
             ///
             /// # Safety
-            /// The CPU has the enabled features; `a` holds R rows of `kdim` values, `panel`
-            /// holds `kdim × 2·lanes` values and `c` R rows of `ldc` values, of which the
+            /// The CPU has the enabled features; `a` holds R rows of `kdim` values, the panel
+            /// holds `kdim × NV·lanes` values and `c` R rows of `ldc` values, of which the
             /// masked columns exist.
             #[target_feature(enable = $feat)]
             #[inline]
-            unsafe fn $tile<const R: usize>(
+            unsafe fn $tile<const R: usize, const NV: usize>(
                 a: *const f32,
                 kdim: usize,
-                panel: *const f32,
+                panel: &Panel<$vec, $mask>,
                 c: *mut f32,
                 ldc: usize,
-                masks: [$mask; 2],
+                bias_rows: usize,
             ) {
-                const NR: usize = 2 * $lanes;
+                let data = panel.data;
                 // SAFETY: the caller guarantees every pointer offset below is in bounds.
                 unsafe {
-                    let mut acc: [[$vec; 2]; R] = core::array::from_fn(|r| {
-                        core::array::from_fn(|v| $loadc(c.add(r * ldc + v * $lanes), masks[v]))
+                    let mut acc: [[$vec; NV]; R] = core::array::from_fn(|r| {
+                        core::array::from_fn(|v| {
+                            if r < bias_rows {
+                                panel.bias[v]
+                            } else {
+                                $zero()
+                            }
+                        })
                     });
                     for k in 0..kdim {
-                        let b0 = $load(panel.add(k * NR));
-                        let b1 = $load(panel.add(k * NR + $lanes));
+                        let b: [$vec; NV] =
+                            core::array::from_fn(|v| $load(data.add((k * NV + v) * $lanes)));
                         for (r, acc_r) in acc.iter_mut().enumerate() {
                             let av = $set1(*a.add(r * kdim + k));
-                            acc_r[0] = $fmadd(av, b0, acc_r[0]);
-                            acc_r[1] = $fmadd(av, b1, acc_r[1]);
+                            for (acc_rv, bv) in acc_r.iter_mut().zip(b) {
+                                *acc_rv = $fmadd(av, bv, *acc_rv);
+                            }
                         }
                     }
                     for (r, acc_r) in acc.iter().enumerate() {
                         for (v, acc_rv) in acc_r.iter().enumerate() {
-                            $storec(c.add(r * ldc + v * $lanes), masks[v], *acc_rv);
+                            $storec(c.add(r * ldc + v * $lanes), panel.masks[v], *acc_rv);
+                        }
+                    }
+                }
+            }
+
+            /// One tile over the first of the `left` rows at `a` and `c`; returns the rows it
+            /// took. One-vector panels take twice the rows: the same accumulator count.
+            ///
+            /// # Safety
+            /// As for the tile, with `left` rows in `a` and `c`.
+            #[target_feature(enable = $feat)]
+            #[inline]
+            unsafe fn $step<const NV: usize>(
+                left: usize,
+                a: *const f32,
+                kdim: usize,
+                panel: &Panel<$vec, $mask>,
+                c: *mut f32,
+                ldc: usize,
+                bias_rows: usize,
+            ) -> usize {
+                let (k, pp, n, nb) = (kdim, panel, ldc, bias_rows);
+                // SAFETY: every arm's R is at most `left`.
+                unsafe {
+                    match left {
+                        l if NV == 1 && l >= 2 * $mr => {
+                            $tile::<{ 2 * $mr }, NV>(a, k, pp, c, n, nb);
+                            2 * $mr
+                        }
+                        l if l >= $mr => {
+                            $tile::<$mr, NV>(a, k, pp, c, n, nb);
+                            $mr
+                        }
+                        1 => {
+                            $tile::<1, NV>(a, k, pp, c, n, nb);
+                            1
+                        }
+                        2 => {
+                            $tile::<2, NV>(a, k, pp, c, n, nb);
+                            2
+                        }
+                        3 => {
+                            $tile::<3, NV>(a, k, pp, c, n, nb);
+                            3
+                        }
+                        4 => {
+                            $tile::<4, NV>(a, k, pp, c, n, nb);
+                            4
+                        }
+                        5 => {
+                            $tile::<5, NV>(a, k, pp, c, n, nb);
+                            5
+                        }
+                        6 => {
+                            $tile::<6, NV>(a, k, pp, c, n, nb);
+                            6
+                        }
+                        // AVX-512 only (mr = 8): left = 7.
+                        _ => {
+                            $tile::<7, NV>(a, k, pp, c, n, nb);
+                            7
                         }
                     }
                 }
@@ -307,31 +488,38 @@ mod x86 {
                 }
                 for j0 in (0..p.n).step_by(NR) {
                     let cols = NR.min(p.n - j0);
-                    pack::<NR>(p.b, p.kdim, p.n, j0, cols, panel);
-                    let masks = [$mask_for(cols), $mask_for(cols.saturating_sub($lanes))];
+                    // A last panel of at most one vector (e.g. K ≤ 16 output columns) is
+                    // packed one vector wide, so no multiply-add runs on padding columns.
+                    let narrow = cols <= $lanes;
+                    if narrow {
+                        pack::<$lanes>(p.b, p.kdim, p.n, j0, cols, panel);
+                    } else {
+                        pack::<NR>(p.b, p.kdim, p.n, j0, cols, panel);
+                    }
+                    let mut bias = [0.0f32; NR];
+                    bias[..cols].copy_from_slice(&p.bias[j0..j0 + cols]);
+                    let packed = Panel {
+                        data: panel.as_ptr(),
+                        masks: [$mask_for(cols), $mask_for(cols.saturating_sub($lanes))],
+                        // SAFETY: `bias` holds NR = 2·lanes values.
+                        bias: unsafe { [$load(bias.as_ptr()), $load(bias.as_ptr().add($lanes))] },
+                    };
                     let mut r0 = 0;
                     while r0 < p.rows {
                         let left = p.rows - r0;
-                        // SAFETY: `fits` checked A and C hold `rows` rows; r0 + R <= rows, the
-                        // masks cover only columns j0..j0 + cols <= n, and the panel holds
-                        // kdim × NR values.
-                        unsafe {
+                        let nb = p.bias_rows.saturating_sub(r0);
+                        // SAFETY: `fits` checked A and C hold `rows` rows; a step takes at most
+                        // `left` rows, the masks cover only columns j0..j0 + cols <= n, and
+                        // the panel holds kdim × NR values (kdim × lanes when narrow).
+                        r0 += unsafe {
                             let a = p.a.as_ptr().add(r0 * p.kdim);
                             let cp = c.as_mut_ptr().add(r0 * p.n + j0);
-                            let pp = panel.as_ptr();
-                            let (k, n) = (p.kdim, p.n);
-                            match left {
-                                l if l >= $mr => $tile::<$mr>(a, k, pp, cp, n, masks),
-                                1 => $tile::<1>(a, k, pp, cp, n, masks),
-                                2 => $tile::<2>(a, k, pp, cp, n, masks),
-                                3 => $tile::<3>(a, k, pp, cp, n, masks),
-                                4 => $tile::<4>(a, k, pp, cp, n, masks),
-                                5 => $tile::<5>(a, k, pp, cp, n, masks),
-                                6 => $tile::<6>(a, k, pp, cp, n, masks),
-                                _ => $tile::<7>(a, k, pp, cp, n, masks),
+                            if narrow {
+                                $step::<1>(left, a, p.kdim, &packed, cp, p.n, nb)
+                            } else {
+                                $step::<2>(left, a, p.kdim, &packed, cp, p.n, nb)
                             }
-                        }
-                        r0 += left.min($mr);
+                        };
                     }
                 }
             }
@@ -343,12 +531,6 @@ mod x86 {
     #[inline]
     fn mask16(cols: usize) -> __mmask16 {
         (((1u32 << cols.min(16)) - 1) & 0xffff) as __mmask16
-    }
-    #[target_feature(enable = "avx512f")]
-    #[inline]
-    unsafe fn load16(p: *const f32, m: __mmask16) -> __m512 {
-        // SAFETY: the caller guarantees the masked lanes are readable.
-        unsafe { _mm512_maskz_loadu_ps(m, p) }
     }
     #[target_feature(enable = "avx512f")]
     #[inline]
@@ -366,12 +548,6 @@ mod x86 {
     }
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn load8(p: *const f32, m: __m256i) -> __m256 {
-        // SAFETY: the caller guarantees the masked lanes are readable.
-        unsafe { _mm256_maskload_ps(p, m) }
-    }
-    #[target_feature(enable = "avx2")]
-    #[inline]
     unsafe fn store8(p: *mut f32, m: __m256i, v: __m256) {
         // SAFETY: the caller guarantees the masked lanes are writable.
         unsafe { _mm256_maskstore_ps(p, m, v) }
@@ -380,30 +556,32 @@ mod x86 {
     tiled_product!(
         product_tiled_avx512,
         tile_avx512,
+        step_avx512,
         "avx512f,avx2,fma,f16c",
         __m512,
         16,
         8,
         __mmask16,
         mask16,
-        load16,
         store16,
         _mm512_loadu_ps,
+        _mm512_setzero_ps,
         _mm512_set1_ps,
         _mm512_fmadd_ps
     );
     tiled_product!(
         product_tiled_avx2,
         tile_avx2,
+        step_avx2,
         "avx2,fma,f16c",
         __m256,
         8,
         6,
         __m256i,
         mask8,
-        load8,
         store8,
         _mm256_loadu_ps,
+        _mm256_setzero_ps,
         _mm256_set1_ps,
         _mm256_fmadd_ps
     );
