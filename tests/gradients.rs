@@ -12,7 +12,7 @@ proptest! {
     /// Tolerances: the reference is f64 with step h = 1e-4 of the normalised unit, so its
     /// truncation error h²·|f'''|/6 is ~1e-8·|f'''| (SIREN derivatives grow by ≲ 30 per order)
     /// and its rounding error ~1e-16/h: both negligible. The core runs in f32 (ε ≈ 6e-8) with a
-    /// sine accurate to 1.2e-7; its error is a few ε times the sum of |terms| in each dot
+    /// sine accurate to 1.4e-7; its error is a few ε times the sum of |terms| in each dot
     /// product, which for these SIREN-initialised nets is ≲ 100x the result. Hence
     /// |core − reference| ≤ 2e-4·(|reference| + σ·max(1/s, 1/τ)·30), the last term being the
     /// typical derivative scale of one layer in world units. A wrong formula (a missing cos, a

@@ -165,12 +165,16 @@ mod tests {
     }
 
     #[test]
-    fn quadrant_boundaries_and_specials() {
+    fn reduction_boundaries_and_specials() {
+        // Multiples of π/4 straddle both reductions' rounding boundaries (x/π and x/π − ½ at
+        // half-integers), where n changes and r jumps from +π/2 to −π/2.
         for k in -64..=64 {
             let x = k as f32 * core::f32::consts::FRAC_PI_4;
-            let (s, c) = sin_cos(x);
-            assert!((s as f64 - libm::sin(x as f64)).abs() < 2e-7, "sin({x})");
-            assert!((c as f64 - libm::cos(x as f64)).abs() < 2e-7, "cos({x})");
+            for x in [x.next_down(), x, x.next_up()] {
+                let (s, c) = sin_cos(x);
+                assert!((s as f64 - libm::sin(x as f64)).abs() < 2e-7, "sin({x})");
+                assert!((c as f64 - libm::cos(x as f64)).abs() < 2e-7, "cos({x})");
+            }
         }
         for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             let (s, c) = sin_cos(x);
