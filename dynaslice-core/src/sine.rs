@@ -48,14 +48,14 @@ const S3: f32 = -1.982_344_3e-4;
 const S4: f32 = 2.634_800_5e-6;
 
 /// How a·b + c is evaluated: the portable kernels round twice (bit-identical on every target);
-/// the SIMD kernels use one fused multiply-add instruction.
-pub(crate) trait MulAdd {
+/// the SIMD kernels (and the trainer's) use one fused multiply-add instruction.
+pub trait MulAdd {
     /// a·b + c.
     fn mul_add(a: f32, b: f32, c: f32) -> f32;
 }
 
 /// a·b + c with two roundings (Rust never fuses them implicitly).
-pub(crate) struct Separate;
+pub struct Separate;
 
 impl MulAdd for Separate {
     #[inline(always)]
@@ -64,9 +64,11 @@ impl MulAdd for Separate {
     }
 }
 
-/// a·b + c with one rounding; fast only where the caller enables the `fma` target feature.
+/// a·b + c with one rounding (`f32::mul_add`): one instruction where the calling function
+/// enables the `fma` target feature (or on aarch64), a slow software fused multiply-add
+/// elsewhere, so use it only in code compiled for such targets.
 #[cfg(feature = "std")]
-pub(crate) struct Fused;
+pub struct Fused;
 
 #[cfg(feature = "std")]
 impl MulAdd for Fused {
@@ -101,13 +103,13 @@ fn reduced_sine<M: MulAdd, const HALF: bool>(x: f32) -> f32 {
 
 /// [`sin_cos`] with the given multiply-add.
 #[inline(always)]
-pub(crate) fn sin_cos_with<M: MulAdd>(x: f32) -> (f32, f32) {
+pub fn sin_cos_with<M: MulAdd>(x: f32) -> (f32, f32) {
     (reduced_sine::<M, false>(x), reduced_sine::<M, true>(x))
 }
 
 /// [`sin`] with the given multiply-add.
 #[inline(always)]
-pub(crate) fn sin_with<M: MulAdd>(x: f32) -> f32 {
+pub fn sin_with<M: MulAdd>(x: f32) -> f32 {
     reduced_sine::<M, false>(x)
 }
 

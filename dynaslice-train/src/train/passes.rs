@@ -30,7 +30,7 @@
 use super::matmul::{matmul, Mat, Op};
 use super::network::Network;
 use super::simd::multiversion;
-use dynaslice_core::sine::sin_cos;
+use dynaslice_core::sine::sin_cos_with;
 
 /// Inputs of the first layer: normalised x, y, z, t.
 pub const INPUT_DIM: usize = 4;
@@ -364,11 +364,11 @@ fn check_tangents(tangents: Tangents, groups: usize, n: usize) {
 
 multiversion! {
     /// S_p = sin Z_p, cos = cos Z_p, S_d = cos Z_p ⊙ Ż_d.
-    fn activate(z: &[f32], s: &mut [f32], cos: &mut [f32], n: usize, t: usize, w: usize) {
+    fn activate<M: MulAdd>(z: &[f32], s: &mut [f32], cos: &mut [f32], n: usize, t: usize, w: usize) {
         let (zp, zt) = z.split_at(n * w);
         let (sp, st) = s.split_at_mut(n * w);
         for ((sv, cv), zv) in sp.iter_mut().zip(cos.iter_mut()).zip(zp) {
-            (*sv, *cv) = sin_cos(*zv);
+            (*sv, *cv) = sin_cos_with::<M>(*zv);
         }
         for d in 0..t {
             let range = d * n * w..(d + 1) * n * w;

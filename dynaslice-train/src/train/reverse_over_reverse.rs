@@ -29,7 +29,7 @@ use super::matmul::{matmul, Mat, Op};
 use super::network::Network;
 use super::passes::{add_bias, add_row_sums, input_layer, input_layer_weight_grad, INPUT_DIM};
 use super::simd::multiversion;
-use dynaslice_core::sine::sin_cos;
+use dynaslice_core::sine::sin_cos_with;
 
 /// Buffers of one reverse-over-reverse pass over up to `capacity` points; allocated once and
 /// reused every step.
@@ -294,9 +294,9 @@ impl ReverseWorkspace {
 
 multiversion! {
     /// In place: Z becomes S = sin Z; `cos` gets cos Z.
-    fn activate(z: &mut [f32], cos: &mut [f32]) {
+    fn activate<M: MulAdd>(z: &mut [f32], cos: &mut [f32]) {
         for (zv, cv) in z.iter_mut().zip(cos.iter_mut()) {
-            (*zv, *cv) = sin_cos(*zv);
+            (*zv, *cv) = sin_cos_with::<M>(*zv);
         }
     }
 }

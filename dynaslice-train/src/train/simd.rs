@@ -6,21 +6,34 @@
 //! build machine, so only these loops are multiversioned.
 
 /// Defines `fn $name(args)` that runs `$body` with the widest instruction set the CPU has.
+///
+/// Written `fn $name<M: MulAdd>(args)`, the body may name `M`, the multiply-add of
+/// `dynaslice_core::sine`: `Fused` in the AVX variants (one FMA instruction), `Separate` in the
+/// baseline one (where `f32::mul_add` would be a software routine).
 macro_rules! multiversion {
     ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $body:block) => {
+        $crate::train::simd::multiversion! {
+            $(#[$meta])* $vis fn $name<M: MulAdd>($($arg: $ty),*) $body
+        }
+    };
+    ($(#[$meta:meta])* $vis:vis fn $name:ident<$m:ident: MulAdd>($($arg:ident: $ty:ty),* $(,)?)
+     $body:block) => {
         $(#[$meta])*
         $vis fn $name($($arg: $ty),*) {
+            #[cfg_attr(not(target_arch = "x86_64"), allow(unused_imports))]
+            use dynaslice_core::sine::{Fused, MulAdd, Separate};
             #[inline(always)]
-            fn generic($($arg: $ty),*) $body
+            #[allow(clippy::extra_unused_type_parameters)] // the bodies that need no sine
+            fn generic<$m: MulAdd>($($arg: $ty),*) $body
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
                 fn avx512($($arg: $ty),*) {
-                    generic($($arg),*)
+                    generic::<Fused>($($arg),*)
                 }
                 #[target_feature(enable = "avx2,fma")]
                 fn avx2($($arg: $ty),*) {
-                    generic($($arg),*)
+                    generic::<Fused>($($arg),*)
                 }
                 if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512vl") {
                     // SAFETY: the features it was compiled for were just detected.
@@ -31,7 +44,7 @@ macro_rules! multiversion {
                     return unsafe { avx2($($arg),*) };
                 }
             }
-            generic($($arg),*)
+            generic::<Separate>($($arg),*)
         }
     };
 }
