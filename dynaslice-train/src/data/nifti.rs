@@ -96,6 +96,7 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
             header.datatype
         )))
     })?;
+    let datatype = VoxelType::of(datatype).map_err(at)?;
     let (dims, frames) = dimensions(&header).map_err(at)?;
     let affine = affine(&header).map_err(at)?;
     check_scaling(&header).map_err(at)?;
@@ -122,14 +123,9 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
         // stream is an error rather than silently wrong labels.
         std::io::copy(&mut source, &mut std::io::sink()).map_err(|e| unreadable(&e))?;
     }
+    // `raw` holds exactly `size` = voxels × width bytes (checked above), so `decode` yields
+    // exactly the voxels the header's dimensions count.
     let labels = decode(&raw, datatype, header.endianness).map_err(at)?;
-    let expected = dims.iter().product::<usize>() * frames;
-    if labels.len() != expected {
-        return Err(at(ErrorKind::Nifti(format!(
-            "truncated: {} voxels, the header says {expected}",
-            labels.len()
-        ))));
-    }
     let dt = f64::from(header.pixdim[4]);
     if !dt.is_finite() || dt < 0.0 {
         return Err(at(ErrorKind::Nifti(format!(
@@ -145,27 +141,60 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
     })
 }
 
+/// The voxel types a label volume may have: NIfTI's integer types, the only table of them.
+#[derive(Clone, Copy, Debug)]
+enum VoxelType {
+    Uint8,
+    Int8,
+    Uint16,
+    Int16,
+    Uint32,
+    Int32,
+    Uint64,
+    Int64,
+}
+
+impl VoxelType {
+    fn of(t: NiftiType) -> std::result::Result<VoxelType, ErrorKind> {
+        Ok(match t {
+            NiftiType::Uint8 => VoxelType::Uint8,
+            NiftiType::Int8 => VoxelType::Int8,
+            NiftiType::Uint16 => VoxelType::Uint16,
+            NiftiType::Int16 => VoxelType::Int16,
+            NiftiType::Uint32 => VoxelType::Uint32,
+            NiftiType::Int32 => VoxelType::Int32,
+            NiftiType::Uint64 => VoxelType::Uint64,
+            NiftiType::Int64 => VoxelType::Int64,
+            other => {
+                return Err(ErrorKind::Nifti(format!(
+                    "voxel type {other:?} is not an integer type; a label volume needs integer \
+                     labels"
+                )))
+            }
+        })
+    }
+
+    fn bytes(self) -> usize {
+        match self {
+            VoxelType::Uint8 | VoxelType::Int8 => 1,
+            VoxelType::Uint16 | VoxelType::Int16 => 2,
+            VoxelType::Uint32 | VoxelType::Int32 => 4,
+            VoxelType::Uint64 | VoxelType::Int64 => 8,
+        }
+    }
+}
+
 /// Where the voxel data lies: (first byte, bytes), checked against the `capacity` of the file
-/// with overflow-checked arithmetic. Only integer voxel types are accepted.
+/// with overflow-checked arithmetic.
 fn data_extent(
     h: &NiftiHeader,
-    t: NiftiType,
+    t: VoxelType,
     dims: [usize; 3],
     frames: usize,
     capacity: usize,
     gz: bool,
 ) -> std::result::Result<(usize, usize), ErrorKind> {
-    let bytes_per_voxel: usize = match t {
-        NiftiType::Uint8 | NiftiType::Int8 => 1,
-        NiftiType::Int16 | NiftiType::Uint16 => 2,
-        NiftiType::Int32 | NiftiType::Uint32 => 4,
-        NiftiType::Int64 | NiftiType::Uint64 => 8,
-        other => {
-            return Err(ErrorKind::Nifti(format!(
-                "voxel type {other:?} is not an integer type; a label volume needs integer labels"
-            )))
-        }
-    };
+    let bytes_per_voxel = t.bytes();
     if i32::from(h.bitpix) != 8 * bytes_per_voxel as i32 {
         return Err(ErrorKind::Nifti(format!(
             "bitpix {} disagrees with datatype {t:?} ({} bits)",
@@ -315,7 +344,7 @@ fn check_scaling(h: &NiftiHeader) -> std::result::Result<(), ErrorKind> {
     }
 }
 
-fn decode(raw: &[u8], t: NiftiType, e: Endianness) -> std::result::Result<Vec<i32>, ErrorKind> {
+fn decode(raw: &[u8], t: VoxelType, e: Endianness) -> std::result::Result<Vec<i32>, ErrorKind> {
     fn words<const N: usize>(raw: &[u8], e: Endianness) -> impl Iterator<Item = [u8; N]> + '_ {
         raw.chunks_exact(N).map(move |c| {
             let mut w: [u8; N] = c.try_into().unwrap_or([0; N]);
@@ -330,29 +359,24 @@ fn decode(raw: &[u8], t: NiftiType, e: Endianness) -> std::result::Result<Vec<i3
             .map_err(|_| ErrorKind::Nifti(format!("label value {v} does not fit in i32")))
     };
     Ok(match t {
-        NiftiType::Uint8 => raw.iter().map(|&b| i32::from(b)).collect(),
-        NiftiType::Int8 => raw.iter().map(|&b| i32::from(b as i8)).collect(),
-        NiftiType::Int16 => words::<2>(raw, e)
+        VoxelType::Uint8 => raw.iter().map(|&b| i32::from(b)).collect(),
+        VoxelType::Int8 => raw.iter().map(|&b| i32::from(b as i8)).collect(),
+        VoxelType::Int16 => words::<2>(raw, e)
             .map(|w| i32::from(i16::from_le_bytes(w)))
             .collect(),
-        NiftiType::Uint16 => words::<2>(raw, e)
+        VoxelType::Uint16 => words::<2>(raw, e)
             .map(|w| i32::from(u16::from_le_bytes(w)))
             .collect(),
-        NiftiType::Int32 => words::<4>(raw, e).map(i32::from_le_bytes).collect(),
-        NiftiType::Uint32 => words::<4>(raw, e)
+        VoxelType::Int32 => words::<4>(raw, e).map(i32::from_le_bytes).collect(),
+        VoxelType::Uint32 => words::<4>(raw, e)
             .map(|w| wide(i128::from(u32::from_le_bytes(w))))
             .collect::<std::result::Result<_, _>>()?,
-        NiftiType::Int64 => words::<8>(raw, e)
+        VoxelType::Int64 => words::<8>(raw, e)
             .map(|w| wide(i128::from(i64::from_le_bytes(w))))
             .collect::<std::result::Result<_, _>>()?,
-        NiftiType::Uint64 => words::<8>(raw, e)
+        VoxelType::Uint64 => words::<8>(raw, e)
             .map(|w| wide(i128::from(u64::from_le_bytes(w))))
             .collect::<std::result::Result<_, _>>()?,
-        other => {
-            return Err(ErrorKind::Nifti(format!(
-                "voxel type {other:?} is not an integer type; a label volume needs integer labels"
-            )))
-        }
     })
 }
 
