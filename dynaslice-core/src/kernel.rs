@@ -370,7 +370,7 @@ mod x86 {
         ($name:ident, $tile:ident, $step:ident, $feat:literal, $vec:ty, $lanes:literal,
          $mr:literal, $mask:ty, $mask_for:ident, $storec:ident,
          $load:ident, $zero:ident, $set1:ident, $fmadd:ident) => {
-            /// Register tile: rows `r0..r0 + R` × NV vectors of the packed panel's columns,
+            /// Register tile (returns R, the rows it took): rows `r0..r0 + R` × NV vectors of the packed panel's columns,
             /// starting from the panel's bias in the first `bias_rows` rows and from zero in
             /// the others, writing C only where the panel's masks are set (the last panel may
             /// be narrow).
@@ -388,7 +388,7 @@ mod x86 {
                 c: *mut f32,
                 ldc: usize,
                 bias_rows: usize,
-            ) {
+            ) -> usize {
                 let data = panel.data;
                 // SAFETY: the caller guarantees every pointer offset below is in bounds.
                 unsafe {
@@ -417,6 +417,7 @@ mod x86 {
                         }
                     }
                 }
+                R
             }
 
             /// One tile over the first of the `left` rows at `a` and `c`; returns the rows it
@@ -440,42 +441,17 @@ mod x86 {
                 unsafe {
                     match left {
                         l if NV == 1 && l >= 2 * $mr => {
-                            $tile::<{ 2 * $mr }, NV>(a, k, pp, c, n, nb);
-                            2 * $mr
+                            $tile::<{ 2 * $mr }, NV>(a, k, pp, c, n, nb)
                         }
-                        l if l >= $mr => {
-                            $tile::<$mr, NV>(a, k, pp, c, n, nb);
-                            $mr
-                        }
-                        1 => {
-                            $tile::<1, NV>(a, k, pp, c, n, nb);
-                            1
-                        }
-                        2 => {
-                            $tile::<2, NV>(a, k, pp, c, n, nb);
-                            2
-                        }
-                        3 => {
-                            $tile::<3, NV>(a, k, pp, c, n, nb);
-                            3
-                        }
-                        4 => {
-                            $tile::<4, NV>(a, k, pp, c, n, nb);
-                            4
-                        }
-                        5 => {
-                            $tile::<5, NV>(a, k, pp, c, n, nb);
-                            5
-                        }
-                        6 => {
-                            $tile::<6, NV>(a, k, pp, c, n, nb);
-                            6
-                        }
+                        l if l >= $mr => $tile::<$mr, NV>(a, k, pp, c, n, nb),
+                        1 => $tile::<1, NV>(a, k, pp, c, n, nb),
+                        2 => $tile::<2, NV>(a, k, pp, c, n, nb),
+                        3 => $tile::<3, NV>(a, k, pp, c, n, nb),
+                        4 => $tile::<4, NV>(a, k, pp, c, n, nb),
+                        5 => $tile::<5, NV>(a, k, pp, c, n, nb),
+                        6 => $tile::<6, NV>(a, k, pp, c, n, nb),
                         // AVX-512 only (mr = 8): left = 7.
-                        _ => {
-                            $tile::<7, NV>(a, k, pp, c, n, nb);
-                            7
-                        }
+                        _ => $tile::<7, NV>(a, k, pp, c, n, nb),
                     }
                 }
             }
