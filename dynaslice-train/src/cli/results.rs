@@ -14,7 +14,7 @@ use crate::metrics::benchmark::Resolution;
 use crate::metrics::heldout::Split;
 use crate::model_file::write_atomically;
 use crate::synth::{slice_sequence, BenchmarkOptions, Shape};
-use crate::train::data_sampler::SampleCounts;
+use crate::train::data_sampler::{SampleCounts, DEFAULT_TEMPORAL_FACTOR};
 use crate::train::trainer::TrainOptions;
 use anyhow::{anyhow, bail, Context, Result};
 use std::collections::HashMap;
@@ -82,7 +82,7 @@ pub struct Args {
     #[arg(long, default_value_t = SampleCounts::default().space)]
     samples: usize,
     /// c of ω_t^max = c·π/Δt (Eq. 4) for the variants with temporal control.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = DEFAULT_TEMPORAL_FACTOR)]
     temporal_factor: f32,
     /// ω₀: the first layer's spatial frequency scale over the normalised cube.
     #[arg(long, default_value_t = TrainOptions::default().omega_0)]

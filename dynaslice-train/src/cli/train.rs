@@ -4,7 +4,9 @@ use super::input::{self, InputArgs};
 use super::loss::LossArgs;
 use crate::model_file::write_atomically;
 use crate::plot::{line_chart, Series};
-use crate::train::data_sampler::{domain_for, temporal_bound, DataSampler, SampleCounts};
+use crate::train::data_sampler::{
+    domain_for, temporal_bound, DataSampler, SampleCounts, DEFAULT_TEMPORAL_FACTOR,
+};
 use crate::train::trainer::{self, Outcome, Progress, TrainOptions};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -55,7 +57,7 @@ pub struct Args {
     #[arg(long, default_value_t = TrainOptions::default().offset)]
     init_offset: f32,
     /// c in ω_t^max = c·π/Δt (Eq. 4), Δt the annotated frames' spacing in normalised time.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = DEFAULT_TEMPORAL_FACTOR)]
     temporal_factor: f32,
     /// Initial learning rate (cosine decay to a tenth).
     #[arg(long, default_value_t = TrainOptions::default().lr)]

@@ -9,7 +9,9 @@ use dynaslice_core::{Domain, Layout};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-/// SIREN's ω₀ (Sitzmann et al. 2020): the default frequency scale of the first layer.
+/// SIREN's ω₀ (Sitzmann et al. 2020), the paper's initialisation: used by the gradient checks
+/// and the step benchmark. The trainer's default is ω₀ = 10 (`TrainOptions::default`, measured in
+/// docs/training.md).
 pub const OMEGA_0: f32 = 30.0;
 
 /// Layout, parameters and the temporal band limit of a network being trained.
