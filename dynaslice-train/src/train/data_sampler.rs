@@ -264,6 +264,8 @@ impl Sampler for DataSampler {
 mod tests {
     use super::*;
     use crate::synth::{slice_sequence, BenchmarkOptions, Shape};
+    use crate::train::network::{Network, OMEGA_0};
+    use crate::train::trainer::TrainOptions;
 
     fn sampler() -> DataSampler {
         let bench = BenchmarkOptions {
@@ -280,6 +282,44 @@ mod tests {
             space: 16,
         };
         DataSampler::new(&seq, domain_for(&seq), counts)
+    }
+
+    /// The default c on the benchmark's sampling (10 of 37 frames annotated): at the trainer's
+    /// default ω₀ the bound leaves the initial network exactly the unbounded one (a guard, so
+    /// the default tables of docs/results.md do not depend on c), while at SIREN's ω₀ = 30 it
+    /// cuts ω_t's initial range, the setting where docs/training.md measures its gain.
+    #[test]
+    fn default_temporal_bound_binds_at_sirens_omega0_only() {
+        let bench = BenchmarkOptions {
+            timesteps: 37,
+            train_every: 4,
+            planes: Some((1, 1)),
+            plane_resolution: 16,
+            volume_resolution: 8,
+        };
+        let seq = slice_sequence(Shape::Blob, &bench).unwrap();
+        let bound = temporal_bound(&seq, &domain_for(&seq), DEFAULT_TEMPORAL_FACTOR, true);
+        let expected = DEFAULT_TEMPORAL_FACTOR * 9.0 * std::f32::consts::PI;
+        assert!(
+            (bound - expected).abs() < 1e-4,
+            "{bound} against {expected}"
+        );
+        let layout = dynaslice_core::Layout::new(&[32, 32], 1).unwrap();
+        let net =
+            |omega_0: f32, omega_t_max: f32| Network::siren(layout, omega_0, 0.2, omega_t_max, 7);
+        let default_omega_0 = TrainOptions::default().omega_0;
+        assert_eq!(
+            net(default_omega_0, bound).params,
+            net(default_omega_0, f32::INFINITY).params
+        );
+        let (bounded, free) = (net(OMEGA_0, bound), net(OMEGA_0, f32::INFINITY));
+        let largest = |n: &Network| {
+            n.params[n.omega_t_range()]
+                .iter()
+                .fold(0.0f32, |m, v| m.max(v.abs()))
+        };
+        assert!(largest(&bounded) <= bound);
+        assert!(largest(&free) > bound, "{} ≤ {bound}", largest(&free));
     }
 
     /// Class weights scale exactly their class's contour and plane sample weights, change the
