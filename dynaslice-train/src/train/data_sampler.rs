@@ -313,13 +313,9 @@ mod tests {
             net(default_omega_0, f32::INFINITY).params
         );
         let (bounded, free) = (net(OMEGA_0, bound), net(OMEGA_0, f32::INFINITY));
-        let largest = |n: &Network| {
-            n.params[n.omega_t_range()]
-                .iter()
-                .fold(0.0f32, |m, v| m.max(v.abs()))
-        };
-        assert!(largest(&bounded) <= bound);
-        assert!(largest(&free) > bound, "{} ≤ {bound}", largest(&free));
+        assert!(bounded.largest_omega_t() <= bound);
+        let free = free.largest_omega_t();
+        assert!(free > bound, "{free} ≤ {bound}");
     }
 
     /// Class weights scale exactly their class's contour and plane sample weights, change the

@@ -87,6 +87,13 @@ impl Network {
         3 * width..4 * width
     }
 
+    /// The largest |ω_t| of the first layer: the temporal band the network actually uses.
+    pub fn largest_omega_t(&self) -> f32 {
+        self.params[self.omega_t_range()]
+            .iter()
+            .fold(0.0f32, |m, v| m.max(v.abs()))
+    }
+
     /// Projects ω_t back into [−ω_t^max, ω_t^max] (Eq. 4); called after every optimiser step.
     pub fn clamp_temporal_frequencies(&mut self) {
         let m = self.omega_t_max;
@@ -108,9 +115,7 @@ impl Network {
         let omega_t_max = if self.omega_t_max.is_finite() {
             self.omega_t_max
         } else {
-            self.params[self.omega_t_range()]
-                .iter()
-                .fold(0.0f32, |m, v| m.max(v.abs()))
+            self.largest_omega_t()
         };
         ModelWriter {
             widths: self.layout.widths().iter().map(|&w| w as u32).collect(),
