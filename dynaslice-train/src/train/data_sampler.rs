@@ -290,12 +290,12 @@ mod tests {
     /// cuts ω_t's initial range, the setting where docs/training.md measures its gain.
     #[test]
     fn default_temporal_bound_binds_at_sirens_omega0_only() {
+        // The benchmark's frames (37, every 4th annotated); few, coarse planes suffice for Δt.
         let bench = BenchmarkOptions {
-            timesteps: 37,
-            train_every: 4,
             planes: Some((1, 1)),
             plane_resolution: 16,
             volume_resolution: 8,
+            ..BenchmarkOptions::default()
         };
         let seq = slice_sequence(Shape::Blob, &bench).unwrap();
         let bound = temporal_bound(&seq, &domain_for(&seq), DEFAULT_TEMPORAL_FACTOR, true);
