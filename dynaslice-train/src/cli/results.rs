@@ -90,8 +90,9 @@ pub struct Args {
     /// Initial value of every channel, normalised units (see `dynaslice train --help`).
     #[arg(long, default_value_t = TrainOptions::default().offset)]
     init_offset: f32,
-    /// Seeds per (shape, variant) of the synthetic table, 0..N: the table shows their mean
-    /// (one seed's ranking of two variants can flip with the next seed).
+    /// Seeds per (shape, variant) of the synthetic table and per (input, way of sharing) of the
+    /// multi-class one, 0..N: the tables show their mean (one seed's ranking of two variants can
+    /// flip with the next seed).
     #[arg(long, default_value_t = 3)]
     seeds: u64,
     /// Loss weights; the ablations set λ_n to 0.
@@ -251,17 +252,19 @@ pub fn run(a: Args) -> Result<()> {
             let steps = case.calibrate(&protocol)?;
             report.multiclass.push((case, Vec::new()));
             let i = report.multiclass.len() - 1;
-            for sharing in report.multiclass[i].0.sharings() {
-                let case = &report.multiclass[i].0;
-                eprintln!(
-                    "{} / {}: {steps} steps per model",
-                    case.name,
-                    sharing.name()
-                );
-                let run = case.run(sharing, &protocol, steps)?;
-                eprintln!("  {:.0} s", run.seconds);
-                report.multiclass[i].1.push(run);
-                report.write(&a.output)?;
+            for seed in 0..a.seeds.max(1) {
+                for sharing in report.multiclass[i].0.sharings() {
+                    let case = &report.multiclass[i].0;
+                    eprintln!(
+                        "{} / {} / seed {seed}: {steps} steps per model",
+                        case.name,
+                        sharing.name()
+                    );
+                    let run = case.run(sharing, seed, &protocol, steps)?;
+                    eprintln!("  {:.0} s", run.seconds);
+                    report.multiclass[i].1.push(run);
+                    report.write(&a.output)?;
+                }
             }
         }
     }

@@ -6,12 +6,15 @@
 //!
 //! Every model trains for the same number of steps, calibrated on the shared model, so the
 //! independent models together cost about K times the steps of the shared one. Each one-class
-//! model sees exactly the planes that annotate its class, as the shared model does.
+//! model sees exactly the planes that annotate its class, as the shared model does. Every way
+//! of sharing runs from the same seeds; the table shows means over them, because one seed can
+//! collapse a class (docs/training.md measures it on the real CT case).
 
 use super::{cell, fit, Protocol};
 use crate::data::Sequence;
 use crate::metrics::heldout::{held_out, held_out_class, HeldOut, Split};
 use crate::metrics::iou::Overlap;
+use crate::train::trainer::TrainOptions;
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 
@@ -41,6 +44,8 @@ impl Sharing {
 pub struct SharingRun {
     /// The way.
     pub sharing: Sharing,
+    /// Seed of initialisation and sampling.
+    pub seed: u64,
     /// Per class: IoU on (spatial, temporal, spatio-temporal) withheld slices.
     pub class_iou: Vec<[Option<f64>; 3]>,
     /// Training wall time of all its models together.
@@ -90,9 +95,13 @@ impl Case {
         p.steps_for(&self.split.training(&self.seq)?)
     }
 
-    /// Trains and scores one way of sharing, `steps` steps per model.
-    pub fn run(&self, sharing: Sharing, p: &Protocol, steps: u64) -> Result<SharingRun> {
+    /// Trains and scores one way of sharing from `seed`, `steps` steps per model.
+    pub fn run(&self, sharing: Sharing, seed: u64, p: &Protocol, steps: u64) -> Result<SharingRun> {
         let train = self.split.training(&self.seq)?;
+        let options = |seq: &Sequence, temporal_control: bool| TrainOptions {
+            seed,
+            ..p.options(seq, steps, temporal_control, true)
+        };
         let (class_iou, seconds) = match sharing {
             Sharing::Independent => {
                 let mut rows = Vec::new();
@@ -101,7 +110,7 @@ impl Case {
                     let one = train
                         .only_class(c)
                         .with_context(|| format!("{}: class {}", self.name, c + 1))?;
-                    let fitted = fit(&one, &p.options(&one, steps, true, true), p.counts)?;
+                    let fitted = fit(&one, &options(&one, true), p.counts)?;
                     seconds += fitted.seconds;
                     let h =
                         held_out_class(&fitted.model(), &self.seq, c, &self.split, self.pixels)?;
@@ -111,13 +120,14 @@ impl Case {
             }
             Sharing::Shared | Sharing::SharedNoTemporal => {
                 let control = sharing == Sharing::Shared;
-                let fitted = fit(&train, &p.options(&train, steps, control, true), p.counts)?;
+                let fitted = fit(&train, &options(&train, control), p.counts)?;
                 let h = held_out(&fitted.model(), &self.seq, &self.split, self.pixels)?;
                 (per_class(&h), fitted.seconds)
             }
         };
         Ok(SharingRun {
             sharing,
+            seed,
             class_iou,
             seconds,
             steps,
@@ -130,18 +140,38 @@ fn mean(v: impl Iterator<Item = Option<f64>>) -> Option<f64> {
     (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
 }
 
-/// The markdown of one case's runs.
+/// The runs of `runs` that share `sharing`, one per seed.
+fn of(runs: &[SharingRun], sharing: Sharing) -> Vec<&SharingRun> {
+    runs.iter().filter(|r| r.sharing == sharing).collect()
+}
+
+/// The mean over seeds of one seed's figure.
+fn seed_mean(of: &[&SharingRun], figure: impl Fn(&SharingRun) -> Option<f64>) -> Option<f64> {
+    mean(of.iter().map(|r| figure(r)))
+}
+
+/// The markdown of one case's runs (any ways of sharing and seeds; every figure of a way is
+/// the mean over its seeds of the figure of one seed, itself a mean over classes).
 pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
     let mut s = String::new();
     let k = case.seq.classes().len();
     let planes: usize = case.seq.frames().iter().map(|f| f.planes.len()).sum();
+    let mut seeds: Vec<u64> = runs.iter().map(|r| r.seed).collect();
+    seeds.sort_unstable();
+    seeds.dedup();
+    let mut sharings: Vec<Sharing> = Vec::new();
+    for r in runs {
+        if !sharings.contains(&r.sharing) {
+            sharings.push(r.sharing);
+        }
+    }
     let _ = writeln!(s, "### {}\n", case.name);
     let _ = writeln!(
         s,
         "{} ({k} classes, {} frames, {planes} planes). Withheld: frames {}, planes {} (within \
          each frame); 2D IoU of the Eq. 11 labels on the withheld slices at {} pixels along each \
          region's longer side. Every model trained {} steps ({} min calibrated on the shared \
-         model, {} threads).\n",
+         model, {} threads); mean of the {} seed(s) {:?}.\n",
         case.source,
         case.seq.frames().len(),
         case.split.frames.map_or("none".into(), |r| r.to_string()),
@@ -150,6 +180,8 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
         runs.first().map_or(0, |r| r.steps),
         p.minutes,
         p.options.threads,
+        seeds.len(),
+        seeds,
     );
     let dynamic = case.is_dynamic();
     let categories: &[(usize, &str)] = if dynamic {
@@ -157,18 +189,35 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
     } else {
         &[(0, "spatial")]
     };
+    let category_iou = |r: &SharingRun, i: usize| mean(r.class_iou.iter().map(|c| c[i]));
     let _ = write!(s, "| model |");
     for (_, c) in categories {
         let _ = write!(s, " {c} IoU |");
     }
     let _ = writeln!(s, " train time | per class |");
     let _ = writeln!(s, "|---|{}---|---|", "---|".repeat(categories.len()));
-    for r in runs {
-        let _ = write!(s, "| {} |", r.sharing.name());
+    for &sharing in &sharings {
+        let of = of(runs, sharing);
+        let _ = write!(s, "| {} |", sharing.name());
         for &(i, _) in categories {
-            let _ = write!(s, " {} |", cell(mean(r.class_iou.iter().map(|c| c[i])), 3));
+            let _ = write!(s, " {} |", cell(seed_mean(&of, |r| category_iou(r, i)), 3));
         }
-        let _ = writeln!(s, " {:.0} s | {:.1} s |", r.seconds, r.seconds / k as f64);
+        let seconds = seed_mean(&of, |r| Some(r.seconds)).unwrap_or(0.0);
+        let _ = writeln!(s, " {seconds:.0} s | {:.1} s |", seconds / k as f64);
+    }
+    if seeds.len() > 1 {
+        let _ = writeln!(
+            s,
+            "\nPer seed ({} IoU; seeds {seeds:?}):\n",
+            categories[0].1
+        );
+        for &sharing in &sharings {
+            let ious: Vec<String> = of(runs, sharing)
+                .iter()
+                .map(|r| cell(category_iou(r, 0), 3))
+                .collect();
+            let _ = writeln!(s, "- {}: {}", sharing.name(), ious.join(", "));
+        }
     }
     let _ = writeln!(s, "\nPer class, spatial IoU:\n");
     let _ = write!(s, "| model |");
@@ -176,10 +225,11 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
         let _ = write!(s, " {} ({}) |", c.name, c.label);
     }
     let _ = writeln!(s, "\n|---|{}", "---|".repeat(k));
-    for r in runs {
-        let _ = write!(s, "| {} |", r.sharing.name());
-        for c in &r.class_iou {
-            let _ = write!(s, " {} |", cell(c[0], 3));
+    for &sharing in &sharings {
+        let of = of(runs, sharing);
+        let _ = write!(s, "| {} |", sharing.name());
+        for c in 0..k {
+            let _ = write!(s, " {} |", cell(seed_mean(&of, |r| r.class_iou[c][0]), 3));
         }
         let _ = writeln!(s);
     }
@@ -192,7 +242,6 @@ mod tests {
     use super::*;
     use crate::synth::{slice_sequence, BenchmarkOptions, Shape};
     use crate::train::data_sampler::SampleCounts;
-    use crate::train::trainer::TrainOptions;
 
     fn case() -> Case {
         let bench = BenchmarkOptions {
@@ -258,7 +307,7 @@ mod tests {
         };
         assert_eq!(c.sharings().len(), 3);
         for sharing in c.sharings() {
-            let r = c.run(sharing, &p, 3).unwrap();
+            let r = c.run(sharing, 0, &p, 3).unwrap();
             assert_eq!(r.class_iou.len(), 3, "{sharing:?}");
             for (k, row) in r.class_iou.iter().enumerate() {
                 for v in row {
@@ -267,7 +316,71 @@ mod tests {
                 }
             }
         }
-        let md = markdown(&c, &[c.run(Sharing::Shared, &p, 2).unwrap()], &p);
+        let md = markdown(&c, &[c.run(Sharing::Shared, 0, &p, 2).unwrap()], &p);
         assert!(md.contains("| one shared model (DynaSlice) |"), "{md}");
+        let (a, b) = (
+            c.run(Sharing::Shared, 0, &p, 2),
+            c.run(Sharing::Shared, 1, &p, 2),
+        );
+        assert_ne!(
+            a.unwrap().class_iou,
+            b.unwrap().class_iou,
+            "the seed reaches the trainer"
+        );
+    }
+
+    /// A way of sharing run from several seeds shows, per category and per class, the mean
+    /// over seeds of each seed's figure (itself a mean over classes), each seed's spatial IoU,
+    /// and the mean training time.
+    #[test]
+    fn the_table_averages_over_seeds() {
+        let c = case();
+        let p = Protocol {
+            minutes: 1.0,
+            options: TrainOptions::default(),
+            counts: SampleCounts::default(),
+            temporal_factor: 0.2,
+        };
+        let run = |sharing, seed, iou: [f64; 3], seconds| SharingRun {
+            sharing,
+            seed,
+            class_iou: iou
+                .iter()
+                .map(|&v| [Some(v), Some(v / 2.0), None])
+                .collect(),
+            seconds,
+            steps: 10,
+        };
+        let runs = [
+            run(Sharing::Independent, 0, [0.9, 0.8, 0.7], 30.0),
+            run(Sharing::Shared, 0, [0.6, 0.6, 0.6], 12.0),
+            run(Sharing::Independent, 1, [0.5, 0.4, 0.3], 36.0),
+            run(Sharing::Shared, 1, [0.8, 0.8, 0.8], 18.0),
+        ];
+        let md = markdown(&c, &runs, &p);
+        // Independent: spatial (0.8 + 0.4) / 2, temporal half of it, spatio-temporal
+        // undefined; 33 s over 3 classes.
+        assert!(
+            md.contains("| independent per-class models | 0.600 | 0.300 | – | 33 s | 11.0 s |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| one shared model (DynaSlice) | 0.700 | 0.350 | – | 15 s | 5.0 s |"),
+            "{md}"
+        );
+        assert!(md.contains("mean of the 2 seed(s) [0, 1]"), "{md}");
+        assert!(
+            md.contains("- independent per-class models: 0.800, 0.400"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| independent per-class models | 0.700 | 0.600 | 0.500 |"),
+            "{md}"
+        );
+        assert_eq!(
+            md.matches("| one shared model (DynaSlice) |").count(),
+            2,
+            "{md}"
+        );
     }
 }
