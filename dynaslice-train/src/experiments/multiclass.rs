@@ -141,7 +141,7 @@ fn mean(v: impl Iterator<Item = Option<f64>>) -> Option<f64> {
 }
 
 /// The runs of `runs` that share `sharing`, one per seed.
-fn of(runs: &[SharingRun], sharing: Sharing) -> Vec<&SharingRun> {
+fn runs_of(runs: &[SharingRun], sharing: Sharing) -> Vec<&SharingRun> {
     runs.iter().filter(|r| r.sharing == sharing).collect()
 }
 
@@ -197,7 +197,7 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
     let _ = writeln!(s, " train time | per class |");
     let _ = writeln!(s, "|---|{}---|---|", "---|".repeat(categories.len()));
     for &sharing in &sharings {
-        let of = of(runs, sharing);
+        let of = runs_of(runs, sharing);
         let _ = write!(s, "| {} |", sharing.name());
         for &(i, _) in categories {
             let _ = write!(s, " {} |", cell(seed_mean(&of, |r| category_iou(r, i)), 3));
@@ -212,7 +212,7 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
             categories[0].1
         );
         for &sharing in &sharings {
-            let ious: Vec<String> = of(runs, sharing)
+            let ious: Vec<String> = runs_of(runs, sharing)
                 .iter()
                 .map(|r| cell(category_iou(r, 0), 3))
                 .collect();
@@ -226,7 +226,7 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
     }
     let _ = writeln!(s, "\n|---|{}", "---|".repeat(k));
     for &sharing in &sharings {
-        let of = of(runs, sharing);
+        let of = runs_of(runs, sharing);
         let _ = write!(s, "| {} |", sharing.name());
         for c in 0..k {
             let _ = write!(s, " {} |", cell(seed_mean(&of, |r| r.class_iou[c][0]), 3));
