@@ -50,6 +50,11 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', default_value = "256,256,256,256")]
     widths: Vec<u32>,
     /// ω₀: the first layer's spatial frequency scale over the normalised cube.
+    ///
+    /// The default suits sparse planes and moving structures. For densely sliced static
+    /// anatomy (many planes, several orientations) `--omega0 30 --init-offset 0.5` fits finer
+    /// detail: held-out 2D IoU 0.94 against 0.88 on the TotalSegmentator CT, while 15-plane
+    /// `.csl` inputs and the moving synthetic chambers lose at ω₀ = 30 (docs/training.md).
     #[arg(long, default_value_t = TrainOptions::default().omega_0)]
     omega0: f32,
     /// Initial value of every channel in normalised units (the domain's half-width is 1): the
