@@ -51,10 +51,12 @@ pub struct Args {
     widths: Vec<u32>,
     /// ω₀: the first layer's spatial frequency scale over the normalised cube.
     ///
-    /// The default suits sparse planes and moving structures. For densely sliced static
-    /// anatomy (many planes, several orientations) `--omega0 30 --init-offset 0.5` fits finer
-    /// detail: held-out 2D IoU 0.94 against 0.88 on the TotalSegmentator CT, while 15-plane
-    /// `.csl` inputs and the moving synthetic chambers lose at ω₀ = 30 (docs/training.md).
+    /// The default suits sparse planes and moving structures. Densely sliced static anatomy
+    /// (many planes, several orientations) fits finer at 30: held-out 2D IoU 0.94–0.95 against
+    /// 0.88–0.91 on the TotalSegmentator CT. Training is less stable there: one-class models
+    /// need the default `--init-offset`, multi-class ones did better with 0.5; check the
+    /// result with `dynaslice eval heldout`. 15-plane `.csl` inputs and the moving synthetic
+    /// chambers lose at 30 (docs/training.md, "ω₀ and the initial offset").
     #[arg(long, default_value_t = TrainOptions::default().omega_0)]
     omega0: f32,
     /// Initial value of every channel in normalised units (the domain's half-width is 1): the
