@@ -75,6 +75,9 @@ pub struct Args {
     /// Initial learning rate.
     #[arg(long, default_value_t = TrainOptions::default().lr)]
     lr: f32,
+    /// Learning-rate warm-up steps of every model (see `dynaslice train --help`).
+    #[arg(long, default_value_t = TrainOptions::default().warmup_steps)]
+    warmup_steps: u64,
     /// Worker threads.
     #[arg(long, default_value_t = TrainOptions::default().threads)]
     threads: usize,
@@ -173,6 +176,7 @@ pub fn run(a: Args) -> Result<()> {
             threads: a.threads.max(1),
             lr: a.lr,
             lr_final: a.lr / 10.0,
+            warmup_steps: a.warmup_steps,
             omega_0: a.omega0,
             offset: a.init_offset,
             loss: a.loss.weights(true),

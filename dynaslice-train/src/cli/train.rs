@@ -52,11 +52,11 @@ pub struct Args {
     /// ω₀: the first layer's spatial frequency scale over the normalised cube.
     ///
     /// The default suits sparse planes and moving structures. Densely sliced static anatomy
-    /// (many planes, several orientations) fits finer at 30: held-out 2D IoU 0.94–0.95 against
-    /// 0.88–0.91 on the TotalSegmentator CT. Training is less stable there: one-class models
-    /// need the default `--init-offset`, multi-class ones did better with 0.5; check the
-    /// result with `dynaslice eval heldout`. 15-plane `.csl` inputs and the moving synthetic
-    /// chambers lose at 30 (docs/training.md, "ω₀ and the initial offset").
+    /// (many planes, several orientations) fits finer at 30: held-out 2D IoU 0.94 against
+    /// 0.87–0.91 on the TotalSegmentator CT. At 30 add `--warmup-steps 100`: without it,
+    /// models measured there collapsed into spurious insides in some seeds. 15-plane `.csl`
+    /// inputs and the moving synthetic chambers lose at 30 (docs/training.md, "ω₀ and the
+    /// initial offset").
     #[arg(long, default_value_t = TrainOptions::default().omega_0)]
     omega0: f32,
     /// Initial value of every channel in normalised units (the domain's half-width is 1): the
@@ -69,6 +69,14 @@ pub struct Args {
     /// Initial learning rate (cosine decay to a tenth).
     #[arg(long, default_value_t = TrainOptions::default().lr)]
     lr: f32,
+    /// Steps over which the learning rate ramps up linearly from lr / N to lr (0: none).
+    ///
+    /// Worth it at `--omega0 30`, where the first full-size steps can turn large regions of a
+    /// channel inside: with 100 steps and the default `--init-offset` every model measured
+    /// there was stable (docs/training.md, "Learning-rate warm-up"). At the default ω₀ it is
+    /// not needed.
+    #[arg(long, default_value_t = TrainOptions::default().warmup_steps)]
+    warmup_steps: u64,
     #[command(flatten)]
     loss: LossArgs,
     /// Contour points per class per step.
@@ -109,6 +117,7 @@ pub fn run(a: Args) -> Result<()> {
         threads: a.threads.max(1),
         lr: a.lr,
         lr_final: a.lr / 10.0,
+        warmup_steps: a.warmup_steps,
         loss: a.loss.weights(!a.no_orientation),
         omega_t_max,
         checkpoint: Some(beside(&a.output, ".ckpt")),

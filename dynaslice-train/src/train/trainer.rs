@@ -47,6 +47,10 @@ pub struct TrainOptions {
     pub lr: f32,
     /// Final learning rate of the cosine schedule.
     pub lr_final: f32,
+    /// Steps over which the learning rate ramps up linearly before following the cosine
+    /// (0: none). At ω₀ = 30 the first steps' full-size updates can flip large regions of a
+    /// channel inside; a short ramp prevents that (docs/training.md, "Learning-rate warm-up").
+    pub warmup_steps: u64,
     /// Loss weights.
     pub loss: LossWeights,
     /// ω_t^max in normalised time (Eq. 4); `f32::INFINITY` turns temporal control off.
@@ -74,6 +78,7 @@ impl Default for TrainOptions {
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             lr: 1e-3,
             lr_final: 1e-4,
+            warmup_steps: 0,
             loss: LossWeights {
                 orientation: 0.1,
                 plane: 0.1,
@@ -96,9 +101,9 @@ impl TrainOptions {
         let l = &self.loss;
         format!(
             "widths = {:?}\nsteps = {}\nseed = {}\nthreads = {}\nomega_0 = {}\noffset = {}\nomega_t_max = {}\n\
-             lr = {} -> {}\nlambda_orientation = {}\nlambda_plane = {}\nlambda_regulariser = {}\nalpha = {}\n",
+             lr = {} -> {}\nwarmup_steps = {}\nlambda_orientation = {}\nlambda_plane = {}\nlambda_regulariser = {}\nalpha = {}\n",
             self.widths, self.steps, self.seed, self.threads, self.omega_0, self.offset, self.omega_t_max, self.lr,
-            self.lr_final, l.orientation, l.plane, l.regulariser, l.alpha
+            self.lr_final, self.warmup_steps, l.orientation, l.plane, l.regulariser, l.alpha
         )
     }
 }
@@ -132,18 +137,33 @@ pub struct Outcome {
     pub elapsed: Duration,
 }
 
-/// Learning rate at `step`: cosine from `lr` to `lr_final` over the schedule.
+/// Learning rate at `step` (0-based): cosine from `lr` to `lr_final` over the schedule, scaled
+/// by (step + 1) / `warmup_steps` during the warm-up.
 pub fn learning_rate(o: &TrainOptions, step: u64) -> f32 {
     let x = (step as f64 / o.steps.max(1) as f64).min(1.0);
     let c = 0.5 * (1.0 + (std::f64::consts::PI * x).cos());
-    (o.lr_final as f64 + (o.lr - o.lr_final) as f64 * c) as f32
+    let warmup = if step < o.warmup_steps {
+        (step + 1) as f64 / o.warmup_steps as f64
+    } else {
+        1.0
+    };
+    (warmup * (o.lr_final as f64 + (o.lr - o.lr_final) as f64 * c)) as f32
 }
 
 /// FNV-1a over the options and the data digest: what a checkpoint must match.
 fn fingerprint(o: &TrainOptions, num_classes: usize, data: u64) -> u64 {
     let text = format!(
-        "{:?}|{:?}|{}|{}|{}|{}|{}|{}|{}|{num_classes}|{data}",
-        o.widths, o.loss, o.omega_0, o.offset, o.seed, o.threads, o.lr, o.lr_final, o.omega_t_max
+        "{:?}|{:?}|{}|{}|{}|{}|{}|{}|{}|{}|{num_classes}|{data}",
+        o.widths,
+        o.loss,
+        o.omega_0,
+        o.offset,
+        o.seed,
+        o.threads,
+        o.lr,
+        o.lr_final,
+        o.warmup_steps,
+        o.omega_t_max
     );
     text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
         (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
@@ -306,6 +326,7 @@ mod tests {
             threads: 2,
             lr: 3e-4,
             lr_final: 3e-5,
+            warmup_steps: 0,
             loss: LossWeights {
                 orientation: 0.1,
                 plane: 0.1,
@@ -346,6 +367,28 @@ mod tests {
             model.eval([0.9, 0.9, 0.0], t, &mut f).unwrap();
             assert!(f[0] > 0.3, "outside at t={t}: {}", f[0]);
         }
+    }
+
+    /// The warm-up scales the first steps by (step + 1) / N, reaches the plain schedule at
+    /// step N − 1 and leaves every later step unchanged.
+    #[test]
+    fn warmup_ramps_then_follows_the_cosine() {
+        let plain = options(100, None);
+        let warm = TrainOptions {
+            warmup_steps: 10,
+            ..options(100, None)
+        };
+        let (lr, lr_warm) = (|s| learning_rate(&plain, s), |s| learning_rate(&warm, s));
+        assert_eq!(lr(0), plain.lr);
+        assert!((lr_warm(0) - lr(0) / 10.0).abs() <= 1e-12);
+        assert!((lr_warm(4) - lr(4) * 0.5).abs() <= 1e-12);
+        for s in 1..10 {
+            assert!(lr_warm(s) > lr_warm(s - 1), "ramp rises at step {s}");
+        }
+        for s in 9..=100 {
+            assert_eq!(lr_warm(s), lr(s), "step {s}");
+        }
+        assert!((lr(100) - plain.lr_final).abs() <= 1e-12);
     }
 
     #[test]
