@@ -58,7 +58,7 @@ DYNASLICE_REQUIRE_HOSTS=1 cargo test -p dynaslice-ffi
 step "release build and install"
 cargo build --release -p dynaslice-ffi --lib --example sphere_fixture
 # The project's own mesher, the reference for the VTK surface (a dev build: the fixture is tiny).
-cargo build -p dynaslice-train --bin dynaslice
+cargo build -p dynaslice-cli --bin dynaslice
 dynaslice=target/debug/dynaslice
 sh dynaslice-ffi/install.sh "$work/prefix" target/release
 

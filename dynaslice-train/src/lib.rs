@@ -1,17 +1,31 @@
-//! DynaSlice's trainer side: cross-section readers, 2D geometry, samplers, the trainer, exporters
-//! and metrics. The `dynaslice` command line is a thin layer over this library.
+//! DynaSlice's trainer: exact hand-written gradients of the DynaSlice loss (Eq. 5–8, 10) and Adam.
+//!
+//! - [`network`]: parameters in the core's layout, SIREN initialisation, ω_t clamp (Eq. 4).
+//! - [`passes`]: forward with spatial tangents and the matching backward pass.
+//! - [`reverse_over_reverse`]: the second scheme for ∇ₓf losses, cheaper for K ≤ 2.
+//! - [`loss`]: the loss terms and their gradients with respect to f and ∇ₓf.
+//! - [`sampling`]: area-uniform contour, plane and space-time samples of a sequence;
+//!   [`data_sampler`]: those samples in the network's normalised frame, per step.
+//! - [`objective`]: the loss and gradient of one batch over worker threads.
+//! - [`adam`]: the optimiser; [`checkpoint`]: resumable state.
+//! - [`mod@bench`]: step throughput against the machine's sgemm peak.
+//! - [`trainer`]: the loop, with its schedule, time limit and checkpoints.
+//! - [`model_file`]: reading and writing model files.
 
-pub mod cli;
-pub mod data;
-pub mod experiments;
-pub mod frame_range;
-pub mod geometry;
-pub mod labels;
-pub mod mesh;
-pub mod metrics;
+pub mod adam;
+pub mod bench;
+pub mod checkpoint;
+pub mod data_sampler;
+pub mod loss;
+mod matmul;
 pub mod model_file;
-pub mod picture;
-pub mod plot;
+pub mod network;
+pub mod objective;
+pub mod passes;
+pub mod reverse_over_reverse;
 pub mod sampling;
-pub mod synth;
-pub mod train;
+mod simd;
+pub mod trainer;
+
+#[cfg(test)]
+mod gradient_check;

@@ -1,7 +1,6 @@
 //! Reading and writing model files (and checkpoints) on disk.
 
 use anyhow::{Context, Result};
-use std::io::Write;
 use std::path::Path;
 
 /// Reads a model file into a buffer aligned for the core's zero-copy weights (8-byte words).
@@ -34,27 +33,4 @@ impl std::ops::Deref for AlignedBytes {
     fn deref(&self) -> &[u8] {
         &bytemuck::cast_slice(&self.words)[..self.len]
     }
-}
-
-/// Writes `bytes` to `path` atomically: a temporary file beside it, fsync, then rename, so a
-/// killed job never leaves a half-written model or checkpoint.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .with_context(|| format!("{} is not a file path", path.display()))?;
-    let tmp = dir.join(format!(".{}.tmp", name.to_string_lossy()));
-    let mut file =
-        std::fs::File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-    file.write_all(bytes)
-        .with_context(|| format!("cannot write {}", tmp.display()))?;
-    file.sync_all()
-        .with_context(|| format!("cannot sync {}", tmp.display()))?;
-    drop(file);
-    std::fs::rename(&tmp, path)
-        .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
-    Ok(())
 }

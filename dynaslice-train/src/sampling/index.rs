@@ -2,8 +2,8 @@
 
 use rayon::prelude::*;
 
-use crate::data::{Plane, Sequence};
-use crate::geometry::PolygonSdf;
+use dynaslice_data::geometry::PolygonSdf;
+use dynaslice_data::{Plane, Sequence};
 
 /// One (plane, class) annotation with its distance structure.
 #[derive(Debug)]

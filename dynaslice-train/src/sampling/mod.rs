@@ -1,10 +1,10 @@
 //! Deterministic samplers producing flat, batch-ready arrays for the trainer.
 //!
-//! Build a [`SamplingIndex`] once per [`crate::data::Sequence`], keep one batch of each kind, and
+//! Build a [`SamplingIndex`] once per [`dynaslice_data::Sequence`], keep one batch of each kind, and
 //! refill them every step:
 //! ```
-//! # use dynaslice_train::sampling::*;
-//! # fn demo(seq: &dynaslice_train::data::Sequence, step: u64) {
+//! # use crate::sampling::*;
+//! # fn demo(seq: &dynaslice_data::Sequence, step: u64) {
 //! let index = SamplingIndex::new(seq);
 //! let (mut contour, mut plane, mut space) = (ContourBatch::default(), PlaneBatch::default(),
 //!     SpaceTimeBatch::default());

@@ -82,7 +82,7 @@ impl SamplingIndex {
     /// Replaces `out` with `n` plane samples: a class uniformly, then (per
     /// [`PlaneSampling::absent_fraction`]) one of its absent or contoured annotations uniformly,
     /// then a point per [`PlaneSampling::near_fraction`]. Exact targets cost one grid query each
-    /// ([`crate::geometry::PolygonSdf`]). No allocation once `out` has grown to `n`.
+    /// ([`dynaslice_data::geometry::PolygonSdf`]). No allocation once `out` has grown to `n`.
     pub fn sample_planes(
         &self,
         rng: &mut SampleRng,

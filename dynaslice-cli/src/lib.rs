@@ -1,0 +1,87 @@
+//! The `dynaslice` command line: one file per subcommand, each a thin layer over the libraries.
+//! [`loss`] is the one flag group shared with the lab's `dynaslice-lab results`.
+
+mod bench;
+mod demo;
+mod eval;
+mod info;
+mod input;
+mod labels;
+pub mod loss;
+mod mesh;
+mod picture;
+mod query;
+mod synth;
+mod train;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Reconstruct moving multi-structure 3D surfaces from sparse 2D cross-sections (DynaSlice).
+#[derive(Parser, Debug)]
+#[command(name = "dynaslice", version, arg_required_else_help = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// The main job on built-in data: slice a multi-class synthetic sequence, train, then write
+    /// meshes for all 37 frames (ParaView series), a label-volume NIfTI and a figure.
+    Demo(demo::Args),
+    /// Measure the training step's speed against this machine's sgemm peak.
+    Bench(bench::Args),
+    /// Accuracy against ground truth or held-out slices, and class volumes over time.
+    Eval(eval::Args),
+    /// Print a model's dimensions, domain, time range, classes and metadata.
+    Info(info::Args),
+    /// Fit a 4D multi-class neural SDF to cross-sections and write the model.
+    Train(train::Args),
+    /// Write a model's Eq. 11 label volume (NIfTI) on a reference image's grid or a box.
+    Labels(labels::Args),
+    /// Extract the classes' surfaces at a time or a series of times as closed meshes.
+    Mesh(mesh::Args),
+    /// Draw a model's labels and the input contours on an input plane, at several times (PNG).
+    Picture(picture::Args),
+    /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
+    Query(query::Args),
+    /// Write the synthetic 4D benchmark: training slices (native JSON) and ground-truth NIfTI.
+    Synth(synth::Args),
+}
+
+/// Parses the process arguments and runs the chosen subcommand.
+pub fn main() -> ExitCode {
+    match run(Cli::parse().command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Runs one subcommand.
+fn run(command: Command) -> anyhow::Result<()> {
+    match command {
+        Command::Demo(args) => demo::run(args),
+        Command::Bench(args) => bench::run(args),
+        Command::Eval(args) => eval::run(args),
+        Command::Info(args) => info::run(args),
+        Command::Labels(args) => labels::run(args),
+        Command::Mesh(args) => mesh::run(args),
+        Command::Picture(args) => picture::run(args),
+        Command::Query(args) => query::run(args),
+        Command::Train(args) => train::run(args),
+        Command::Synth(args) => synth::run(args),
+    }
+}
+
+/// Runs the command line `args` (without the program name), echoing it first, as a user would
+/// type it: the demo is a script of ordinary subcommands.
+fn run_line(args: &[String]) -> anyhow::Result<()> {
+    eprintln!("\n$ dynaslice {}", args.join(" "));
+    let cli =
+        Cli::try_parse_from(std::iter::once("dynaslice".to_string()).chain(args.iter().cloned()))?;
+    run(cli.command)
+}

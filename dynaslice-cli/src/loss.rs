@@ -1,0 +1,37 @@
+//! The loss weights of Eq. 5–8 as command-line options, shared by `train` and `results`.
+
+use dynaslice_train::loss::LossWeights;
+use dynaslice_train::trainer::TrainOptions;
+
+/// λ_n, λ_d, λ_r and α, each with the trainer's default.
+#[derive(clap::Args, Debug, Clone)]
+pub struct LossArgs {
+    /// λ_n, orientation weight (Eq. 6).
+    #[arg(long, default_value_t = TrainOptions::default().loss.orientation)]
+    lambda_orientation: f32,
+    /// λ_d, in-plane SDF weight (Eq. 7).
+    #[arg(long, default_value_t = TrainOptions::default().loss.plane)]
+    lambda_plane: f32,
+    /// λ_r, space-time regulariser weight (Eq. 8).
+    #[arg(long, default_value_t = TrainOptions::default().loss.regulariser)]
+    lambda_regulariser: f32,
+    /// α of exp(−α|f|) (Eq. 8), in normalised units.
+    #[arg(long, default_value_t = TrainOptions::default().loss.alpha)]
+    alpha: f32,
+}
+
+impl LossArgs {
+    /// The weights; `orientation: false` is the ablation `--no-orientation` (λ_n = 0).
+    pub fn weights(&self, orientation: bool) -> LossWeights {
+        LossWeights {
+            orientation: if orientation {
+                self.lambda_orientation
+            } else {
+                0.0
+            },
+            plane: self.lambda_plane,
+            regulariser: self.lambda_regulariser,
+            alpha: self.alpha,
+        }
+    }
+}

@@ -1,0 +1,93 @@
+//! `dynaslice picture MODEL INPUT -o FIG.png`: predicted labels and input contours on a plane.
+
+use super::input::{self, InputArgs};
+use anyhow::{bail, Context, Result};
+use dynaslice_core::Model;
+use dynaslice_figures::picture::{plane_labels, Panel};
+use dynaslice_train::model_file::read_model_bytes;
+use std::path::PathBuf;
+
+/// Arguments of `dynaslice picture`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Model file (.dsm).
+    model: PathBuf,
+    #[command(flatten)]
+    input: InputArgs,
+    /// Output PNG.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Annotated frame whose plane and contours are shown (index into the selected frames).
+    #[arg(long, default_value_t = 0)]
+    frame: usize,
+    /// Plane of that frame (default: the one with the most contour length).
+    #[arg(long)]
+    plane: Option<usize>,
+    /// Extra times (world units) shown on the same plane without contours; default: halfway
+    /// to the next annotated frame.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    times: Option<Vec<f64>>,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let bytes = read_model_bytes(&a.model)?;
+    let model =
+        Model::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", a.model.display()))?;
+    let seq = input::read(&a.input)?;
+    let frames = seq.frames();
+    let Some(frame) = frames.get(a.frame) else {
+        bail!(
+            "{}: --frame {} but the input has {} frames",
+            a.input.input.display(),
+            a.frame,
+            frames.len()
+        );
+    };
+    let length = |i: usize| -> f64 {
+        frame.planes[i]
+            .annotations
+            .iter()
+            .flat_map(|an| &an.polygons)
+            .map(|p| {
+                (0..p.len())
+                    .map(|j| {
+                        (p[j][0] - p[(j + 1) % p.len()][0]).hypot(p[j][1] - p[(j + 1) % p.len()][1])
+                    })
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    let plane_index = match a.plane {
+        Some(p) if p < frame.planes.len() => p,
+        Some(p) => bail!(
+            "{}: --plane {p} but frame {} has {} planes",
+            a.input.input.display(),
+            a.frame,
+            frame.planes.len()
+        ),
+        None => (0..frame.planes.len())
+            .max_by(|&i, &j| length(i).total_cmp(&length(j)))
+            .context("the frame has no plane")?,
+    };
+    let plane = &frame.planes[plane_index];
+    let extra = match a.times {
+        Some(t) => t,
+        None => match frames.get(a.frame + 1) {
+            Some(next) => vec![0.5 * (frame.time + next.time)],
+            None => vec![],
+        },
+    };
+    let mut panels = vec![Panel {
+        time: frame.time,
+        title: format!("t = {:.4} (annotated), plane {plane_index}", frame.time),
+        contours: Some(plane),
+    }];
+    panels.extend(extra.iter().map(|&t| Panel {
+        time: t,
+        title: format!("t = {t:.4} (not annotated)"),
+        contours: None,
+    }));
+    plane_labels(&model, &seq, plane, &panels, &a.output)?;
+    eprintln!("wrote {}", a.output.display());
+    Ok(())
+}

@@ -1,0 +1,61 @@
+//! `dynaslice query MODEL X Y Z T`.
+
+use anyhow::Result;
+use dynaslice_core::{Model, UNDEFINED_LABEL};
+use dynaslice_train::model_file::read_model_bytes;
+use std::path::PathBuf;
+
+/// Arguments of `dynaslice query`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Model file (.dsm).
+    model: PathBuf,
+    /// World x (e.g. mm).
+    #[arg(allow_negative_numbers = true)]
+    x: f32,
+    /// World y.
+    #[arg(allow_negative_numbers = true)]
+    y: f32,
+    /// World z.
+    #[arg(allow_negative_numbers = true)]
+    z: f32,
+    /// World time (the model's time units).
+    #[arg(allow_negative_numbers = true)]
+    t: f32,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let bytes = read_model_bytes(&args.model)?;
+    let model =
+        Model::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
+    let k = model.num_classes();
+    let (mut f, mut grad, mut dfdt) = (vec![0.0; k], vec![[0.0; 3]; k], vec![0.0; k]);
+    let x = [args.x, args.y, args.z];
+    model.eval_jacobian(x, args.t, &mut f, &mut grad, &mut dfdt)?;
+    println!(
+        "{:<5} {:<20} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "class", "name", "f", "df/dx", "df/dy", "df/dz", "df/dt"
+    );
+    for (i, class) in model.classes().enumerate() {
+        let g = grad[i];
+        println!(
+            "{:<5} {:<20} {:>12.6} {:>12.6} {:>12.6} {:>12.6} {:>12.6}",
+            i + 1,
+            class.name,
+            f[i],
+            g[0],
+            g[1],
+            g[2],
+            dfdt[i]
+        );
+    }
+    match model.label(x, args.t) {
+        UNDEFINED_LABEL => println!("label undefined (non-finite query)"),
+        0 => println!("label 0 (background)"),
+        l => {
+            let class = model.class(l)?;
+            println!("label {l} ({}, source label {})", class.name, class.label);
+        }
+    }
+    Ok(())
+}

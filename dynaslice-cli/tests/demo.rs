@@ -1,0 +1,75 @@
+//! `dynaslice demo` end to end at a tiny size: every output it promises exists and is valid.
+
+use dynaslice_core::Model;
+use dynaslice_data::nifti::read_volume;
+use std::process::Command;
+
+#[test]
+fn demo_writes_model_meshes_series_labels_and_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let run = Command::new(env!("CARGO_BIN_EXE_dynaslice"))
+        .args([
+            "demo",
+            "-o",
+            out.to_str().unwrap(),
+            "--steps",
+            "3",
+            "--resolution",
+            "16",
+            "--widths",
+            "16,16",
+            "--samples",
+            "2000",
+        ])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{log}");
+    for line in [
+        "$ dynaslice synth",
+        "$ dynaslice train",
+        "$ dynaslice mesh",
+        "$ dynaslice labels",
+        "$ dynaslice eval volume",
+        "$ dynaslice eval synthetic",
+        "$ dynaslice picture",
+    ] {
+        assert!(log.contains(line), "the demo echoes {line:?}");
+    }
+    let bytes = dynaslice_train::model_file::read_model_bytes(&out.join("model.dsm")).unwrap();
+    let model = Model::from_bytes(&bytes).unwrap();
+    assert_eq!(model.num_classes(), 3, "the chambers: three classes");
+    let pvd = std::fs::read_to_string(out.join("meshes/series.pvd")).unwrap();
+    assert_eq!(
+        pvd.matches("<DataSet").count(),
+        37 * 3,
+        "37 frames × 3 classes"
+    );
+    // The label volume lies on the ground truth's grid, all 37 frames, with the chambers'
+    // source labels (a 3-step model still labels something somewhere, but only labels 0..=3).
+    let truth = read_volume(&out.join("data/chambers/truth.nii.gz")).unwrap();
+    let labels = read_volume(&out.join("labels.nii.gz")).unwrap();
+    assert_eq!((labels.dims, labels.frames), (truth.dims, 37));
+    assert_eq!(labels.affine, truth.affine);
+    assert!(labels.labels.iter().all(|l| (0..=3).contains(l)));
+    // One volume row per frame, one column per class.
+    let volumes = std::fs::read_to_string(out.join("volumes.csv")).unwrap();
+    let rows: Vec<&str> = volumes.lines().collect();
+    assert_eq!(rows.len(), 38, "header + 37 frames");
+    assert_eq!(rows[1].split(',').count(), 4, "time + 3 classes");
+    // The metrics: printed as a table, and per frame in the CSV.
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    for row in ["| all frames |", "| annotated |", "| unannotated |"] {
+        assert!(stdout.contains(row), "the demo prints {row:?}:\n{stdout}");
+    }
+    let metrics = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
+    assert_eq!(metrics.lines().count(), 38);
+    for png in ["figure.png", "model.dsm.loss.png", "volumes.png"] {
+        assert_eq!(
+            &std::fs::read(out.join(png)).unwrap()[1..4],
+            b"PNG",
+            "{png}"
+        );
+    }
+}

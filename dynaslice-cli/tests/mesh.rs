@@ -1,0 +1,274 @@
+//! `dynaslice mesh` and the mesh library on a real model file whose zero sets are known: a
+//! hand-built one-layer SIREN computing two spheres (see [`two_spheres`]). Checks that sparse
+//! extraction through the network equals dense extraction, the geometry and normal velocity
+//! against closed forms, and the command line's files and errors.
+
+use dynaslice_core::format::{ModelWriter, WeightType};
+use dynaslice_core::{Domain, Model};
+use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
+use std::f64::consts::PI;
+use std::path::Path;
+use std::process::Command;
+
+/// World domain: centre (10, −5, 2), half-extent 20 (σ = 20), time 0..2.
+const DOMAIN: Domain = Domain {
+    center: [10.0, -5.0, 2.0],
+    scale: [20.0; 3],
+    time_origin: 0.0,
+    time_span: 2.0,
+    output_scale: 20.0,
+};
+/// Class 1: radius² = R² + 2·R·V·t in normalised units (R = 0.5, V = 0.1), centred.
+const R1: f64 = 0.5;
+const V1: f64 = 0.1;
+/// Class 2: a static sphere of radius 0.3 at normalised (0.4, 0, 0), overlapping class 1.
+const R2: f64 = 0.3;
+const C2: [f64; 3] = [0.4, 0.0, 0.0];
+/// First-layer frequency of the quadratic units: 2(1 − cos(εx))/ε² = x² − ε²x⁴/12 + …, which
+/// moves these spheres by < 1e-4 of their radius. A smaller ε would lose the x² term to f32
+/// rounding of cos(εx) ≈ 1.
+const EPS: f64 = 0.1;
+/// Frequency of the linear units: sin(εx)/ε = x − ε²x³/6 + …; sin(εx) is small, so its f32
+/// rounding is relative to itself and ε can be tiny.
+const EPS_LINEAR: f64 = 0.01;
+
+/// Normalised class-1 radius at normalised time t.
+fn r1(t: f64) -> f64 {
+    (R1 * R1 + 2.0 * R1 * V1 * t).sqrt()
+}
+
+/// A 2-class model with one sine layer of 7 units, cos(εx_a), sin(ε'x_a) and sin(ε't), whose
+/// output layer combines them into f¹ = (|x|² − R² − 2RVt)/(2R) and
+/// f² = (|x − c|² − r²)/(2r): sphere SDFs to first order at their surfaces.
+fn two_spheres() -> Vec<u8> {
+    let widths = [7u32];
+    let mut params = Vec::new();
+    // First layer Wᵀ: rows x, y, z, t of 7 frequencies, then 7 phases.
+    for input in 0..4 {
+        let row: [f64; 7] = std::array::from_fn(|unit| {
+            let axis = if unit < 6 { unit % 3 } else { 3 };
+            match (axis == input, unit) {
+                (false, _) => 0.0,
+                (true, 0..=2) => EPS,
+                (true, _) => EPS_LINEAR,
+            }
+        });
+        params.extend(row);
+    }
+    params.extend([PI / 2.0, PI / 2.0, PI / 2.0, 0.0, 0.0, 0.0, 0.0]);
+    // Output layer Wᵀ: 7 rows of 2 classes, then 2 biases.
+    let quad = |r: f64| -1.0 / (EPS * EPS * r);
+    for unit in 0..7 {
+        let (a, b) = match unit {
+            0..=2 => (quad(R1), quad(R2)),
+            3..=5 => (0.0, -C2[unit - 3] / (R2 * EPS_LINEAR)),
+            _ => (-V1 / EPS_LINEAR, 0.0),
+        };
+        params.extend([a, b]);
+    }
+    let c2 = C2.iter().map(|c| c * c).sum::<f64>();
+    params.extend([
+        3.0 / (EPS * EPS * R1) - R1 / 2.0,
+        3.0 / (EPS * EPS * R2) + (c2 - R2 * R2) / (2.0 * R2),
+    ]);
+    ModelWriter {
+        widths: widths.to_vec(),
+        classes: vec![("ball".into(), 1), ("small ball".into(), 7)],
+        domain: DOMAIN,
+        omega_t_max: 1.0,
+        params: params.into_iter().map(|v| v as f32).collect(),
+        metadata: String::new(),
+        weight_type: WeightType::F32,
+    }
+    .to_bytes()
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+#[test]
+fn sparse_extraction_through_the_network_equals_dense_and_the_closed_forms() {
+    let bytes = two_spheres();
+    let model = Model::from_bytes(&bytes).unwrap();
+    let bounds = model.domain().bounds();
+    let s = DOMAIN.scale[0] as f64;
+    for surfaces in [Surfaces::Overlapping, Surfaces::Partition] {
+        let sparse = Options {
+            resolution: 48,
+            surfaces,
+            ..Options::default()
+        };
+        let dense = Options {
+            sampling: Sampling::Dense,
+            ..sparse
+        };
+        let t = 1.0; // world; normalised 0.5
+        let a = mesh::extract(&model, bounds, t, &[0, 1], &sparse).unwrap();
+        let b = mesh::extract(&model, bounds, t, &[0, 1], &dense).unwrap();
+        assert_eq!(a.meshes, b.meshes, "{surfaces:?}");
+        // The partition's bound is twice as wide (λ = 2), so it prunes less.
+        let saving = match surfaces {
+            Surfaces::Overlapping => 4,
+            Surfaces::Partition => 2,
+        };
+        assert!(
+            a.stats.value_evaluations * saving < b.stats.value_evaluations,
+            "{surfaces:?} {:?}",
+            a.stats
+        );
+        for m in &a.meshes {
+            assert!(m.topology().is_closed_manifold(), "{:?}", m.topology());
+        }
+        if surfaces == Surfaces::Overlapping {
+            let ball = |r: f64| 4.0 / 3.0 * PI * (s * r).powi(3);
+            // Vertices lie on the surface, so the mesh is an inscribed polyhedron: its volume
+            // falls short by O(h²/r²), 0.3% for class 2 (7 cells per radius).
+            let r = r1(0.5);
+            assert!(rel(a.meshes[0].enclosed_volume(), ball(r)) < 5e-3);
+            assert!(rel(a.meshes[1].enclosed_volume(), ball(R2)) < 5e-3);
+            // World coordinates: class 2 is centred at c + s·C2 = (18, −5, 2).
+            let m = &a.meshes[1];
+            let mean = |a: usize| m.positions.iter().map(|p| p[a] as f64).sum::<f64>();
+            let n = m.positions.len() as f64;
+            for (axis, want) in [18.0, -5.0, 2.0].into_iter().enumerate() {
+                assert!((mean(axis) / n - want).abs() < 0.05, "axis {axis}");
+            }
+            // v_n = −(∂f/∂t)/‖∇f‖ = V·R/r in normalised units, times s/τ in world units.
+            let want = V1 * R1 / r * s / DOMAIN.time_span as f64;
+            for v in &a.meshes[0].normal_velocity {
+                assert!((*v as f64 - want).abs() < 1e-2 * want, "{v} vs {want}");
+            }
+            assert!(a.meshes[1].normal_velocity.iter().all(|v| v.abs() < 1e-3));
+        } else {
+            // The partition splits the overlap between the classes, so the two regions are
+            // disjoint and their volumes add up to the union's, below the sum of the balls.
+            let sum: f64 = a.meshes.iter().map(|m| m.enclosed_volume()).sum();
+            let balls = 4.0 / 3.0 * PI * s.powi(3) * (r1(0.5).powi(3) + R2.powi(3));
+            assert!(sum < balls * 0.99, "{sum} vs {balls}");
+        }
+    }
+}
+
+fn dynaslice(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_dynaslice"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn write_model(dir: &Path) -> String {
+    let path = dir.join("spheres.dsm");
+    std::fs::write(&path, two_spheres()).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+#[test]
+fn writes_one_file_per_class_in_every_format() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_model(dir.path());
+    for ext in ["ply", "obj", "stl", "vtp"] {
+        let out = dir.path().join(format!("heart.{ext}"));
+        let o = dynaslice(&[
+            "mesh",
+            &model,
+            "--time",
+            "0.5",
+            "--resolution",
+            "32",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{stderr}");
+        assert!(stderr.contains("value + ") && stderr.contains("dense grid: 35937 values"));
+        assert!(!stderr.contains("NOT a closed manifold"), "{stderr}");
+        for tag in ["class1_ball", "class2_small-ball"] {
+            let file = dir.path().join(format!("heart_{tag}.{ext}"));
+            assert!(std::fs::metadata(&file).unwrap().len() > 1000, "{file:?}");
+        }
+    }
+    // One class by name: exactly the path given.
+    let one = dir.path().join("one.stl");
+    let o = dynaslice(&[
+        "mesh",
+        &model,
+        "--time",
+        "2",
+        "--class",
+        "small ball",
+        "-o",
+        one.to_str().unwrap(),
+        "--resolution",
+        "24",
+        "--non-overlapping",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stl = stl_io::read_stl(&mut std::fs::File::open(&one).unwrap()).unwrap();
+    assert!(stl.faces.len() > 100);
+}
+
+#[test]
+fn a_time_series_goes_to_a_directory_with_a_paraview_collection() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_model(dir.path());
+    let out = dir.path().join("series");
+    let o = dynaslice(&[
+        "mesh",
+        &model,
+        "--times",
+        "0:2:3",
+        "--class",
+        "1",
+        "--resolution",
+        "24",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let pvd = std::fs::read_to_string(out.join("series.pvd")).unwrap();
+    for (i, t) in ["0", "1", "2"].iter().enumerate() {
+        let file = format!("class1_ball_t{i:04}.vtp");
+        assert!(out.join(&file).exists(), "{file}");
+        let entry = format!("<DataSet timestep=\"{t}\" group=\"\" part=\"1\" file=\"{file}\"/>");
+        assert!(pvd.contains(&entry), "{pvd}");
+    }
+    assert_eq!(pvd.matches("<DataSet").count(), 3);
+}
+
+#[test]
+fn errors_name_the_file_and_the_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_model(dir.path());
+    let out = dir.path().join("x.ply");
+    let out = out.to_str().unwrap();
+    for (args, want) in [
+        (
+            vec!["--time", "0", "--class", "rv"],
+            "no class \"rv\"; its classes are 1 \"ball\", 2 \"small ball\"",
+        ),
+        (
+            vec!["--time", "3"],
+            "time 3 is outside the model's time range [0, 2]",
+        ),
+        (vec!["--times", "0:1"], "expected A:B:N"),
+        (vec!["--time", "0", "--resolution", "1"], "resolution 1"),
+    ] {
+        let mut all = vec!["mesh", model.as_str(), "-o", out];
+        all.extend(args);
+        let o = dynaslice(&all);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && stderr.contains(want),
+            "{all:?}: {stderr}"
+        );
+    }
+    let o = dynaslice(&["mesh", &model, "--time", "0", "-o", "mesh.off"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("mesh.off: unknown mesh format \"off\""),
+        "{stderr}"
+    );
+    let o = dynaslice(&["mesh", "missing.dsm", "--time", "0", "-o", out]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("missing.dsm"));
+}

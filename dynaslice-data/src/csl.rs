@@ -1,0 +1,562 @@
+//! Reader for `.csl` planar-contour files (OReX and earlier cross-section reconstruction work)
+//! and for `.csl` sequence manifests.
+//!
+//! # Grammar (as the upstream parser reads it)
+//! Line 1 `CSLC`; line 2 `<n_planes> <n_labels>`; blank lines ignored. Per plane a header
+//! `<plane id, 1-based> <n_verts> <n_components> A B C D` (the plane Ax + By + Cz + D = 0), then
+//! `n_verts` lines `x y z`, then `n_components` lines `<n>[h<parent>] <label> i0 … i(n−1)`: a closed
+//! polygon over 0-based indices into the plane's vertices; `h<parent>` marks a hole inside
+//! component `<parent>` (0-based, same plane). `n_labels` is informational (upstream files
+//! declare more labels than they use) and is not checked.
+//!
+//! # Labels and classes
+//! - A solid component's class is its label value; the sequence's classes are the distinct solid
+//!   labels of all its files, in increasing order, named by an optional [`LabelNames`] table.
+//! - A hole belongs to its parent's class. Its own label must equal the parent's, or be `2` under a
+//!   parent labelled `1`: upstream single-object files write 1 for solids and 2 for holes. Any
+//!   other pairing is an error, and so is the `2`-under-`1` pairing in a file that also has solids
+//!   labelled 2 (it would be ambiguous).
+//! - Every plane annotates every class of the sequence: a `.csl` plane is a complete
+//!   segmentation, so a class with no contour on it is absent there (upstream treats empty planes
+//!   the same way).
+//! - Nesting, not the stored orientation, decides outer boundaries and holes (see
+//!   [`Sequence::new`]); a hole must still lie inside the parent it names.
+//!
+//! # Plane frames and regions of interest
+//! The normal is (A, B, C)/‖(A, B, C)‖; u is the world axis least aligned with it, made
+//! orthogonal and unit; v = n × u. The origin is the projection onto the plane of the centroid of
+//! the plane's vertices (of the file's vertices if it has none). Every vertex must lie within
+//! 10⁻⁶ × the file's bounding-box diagonal of its plane. The region of interest of every plane is
+//! the projection of the file's vertex bounding box grown by 5 % of its diagonal on each side.
+//!
+//! # Sequences
+//! One `.csl` file is one timestep. A manifest lists a sequence: one `<time> <path>` per line,
+//! paths relative to the manifest, `#` comments and blank lines ignored; times increase strictly.
+//! ```text
+//! # heart, 3 phases
+//! 0.0  phase0.csl
+//! 0.5  phase1.csl
+//! 1.0  phase2.csl
+//! ```
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use super::error::{DataError, ErrorKind, Result};
+use super::label_names::LabelNames;
+use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
+use crate::geometry::polygon::contains;
+use crate::geometry::Polygon;
+
+/// One component line of a `.csl` plane.
+#[derive(Debug, Clone)]
+struct Component {
+    line: usize,
+    label: i32,
+    parent: Option<usize>,
+    indices: Vec<usize>,
+}
+
+/// One plane of a `.csl` file as written.
+#[derive(Debug, Clone)]
+struct RawPlane {
+    line: usize,
+    coefficients: [f64; 4],
+    vertices: Vec<[f64; 3]>,
+    components: Vec<Component>,
+}
+
+/// A parsed `.csl` file before classes are assigned.
+#[derive(Debug, Clone)]
+struct RawFile {
+    planes: Vec<RawPlane>,
+}
+
+/// Non-blank lines with their 1-based numbers.
+struct Lines<'a> {
+    iter: std::iter::Peekable<Box<dyn Iterator<Item = (usize, &'a str)> + 'a>>,
+    /// Non-blank lines not yet taken by [`Lines::next`].
+    remaining: usize,
+}
+
+impl<'a> Lines<'a> {
+    fn new(text: &'a str) -> Self {
+        let it: Box<dyn Iterator<Item = (usize, &'a str)>> = Box::new(
+            text.lines()
+                .enumerate()
+                .map(|(i, l)| (i + 1, l.trim()))
+                .filter(|(_, l)| !l.is_empty()),
+        );
+        Lines {
+            iter: it.peekable(),
+            remaining: text.lines().filter(|l| !l.trim().is_empty()).count(),
+        }
+    }
+
+    fn next(&mut self, what: impl FnOnce() -> ErrorKind) -> Result<(usize, Vec<&'a str>)> {
+        match self.iter.next() {
+            Some((n, l)) => {
+                self.remaining = self.remaining.saturating_sub(1);
+                Ok((n, l.split_whitespace().collect()))
+            }
+            None => Err(what().into()),
+        }
+    }
+
+    /// Capacity to reserve for `declared` items that take a line each (planes, vertices,
+    /// components): a count field is untrusted input, so it is capped by the lines that are left.
+    /// (A fixed cap let a tiny file claiming 2^31 vertices reserve 24 MiB before failing.)
+    fn capacity(&self, declared: usize) -> usize {
+        declared.min(self.remaining)
+    }
+}
+
+fn syntax(line: usize, what: String) -> DataError {
+    DataError::new(ErrorKind::Syntax(what)).at_line(line)
+}
+
+fn parse_num<T: std::str::FromStr>(line: usize, token: &str, what: &str) -> Result<T> {
+    token
+        .parse()
+        .map_err(|_| syntax(line, format!("{what} `{token}` is not a valid number")))
+}
+
+fn finite(line: usize, value: f64, what: &str) -> Result<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(DataError::new(ErrorKind::NotFinite {
+            what: what.into(),
+            value,
+        })
+        .at_line(line))
+    }
+}
+
+fn parse_file(text: &str) -> Result<RawFile> {
+    let mut lines = Lines::new(text);
+    let (n, magic) = lines.next(|| ErrorKind::Empty("the file is empty".into()))?;
+    if magic != ["CSLC"] {
+        return Err(syntax(
+            n,
+            format!("expected `CSLC`, found `{}`", magic.join(" ")),
+        ));
+    }
+    let (n, counts) = lines.next(|| ErrorKind::Syntax("missing `<n_planes> <n_labels>`".into()))?;
+    if counts.len() != 2 {
+        return Err(syntax(n, "expected `<n_planes> <n_labels>`".into()));
+    }
+    let n_planes: usize = parse_num(n, counts[0], "plane count")?;
+    let _n_labels: usize = parse_num(n, counts[1], "label count")?;
+    let mut planes = Vec::with_capacity(lines.capacity(n_planes));
+    for pi in 0..n_planes {
+        let plane = parse_plane(&mut lines, pi, n_planes).map_err(|e| e.at_plane(pi))?;
+        planes.push(plane);
+    }
+    if let Some((n, _)) = lines.iter.next() {
+        let extra = 1 + lines.iter.count();
+        return Err(DataError::new(ErrorKind::CountMismatch {
+            what: format!("content after the last plane ({extra} more lines)"),
+            declared: n_planes,
+            found: n_planes + 1,
+        })
+        .at_line(n));
+    }
+    if planes.is_empty() {
+        return Err(ErrorKind::Empty("the file declares no plane".into()).into());
+    }
+    Ok(RawFile { planes })
+}
+
+fn parse_plane(lines: &mut Lines, pi: usize, n_planes: usize) -> Result<RawPlane> {
+    let (n, h) = lines.next(|| ErrorKind::CountMismatch {
+        what: "planes".into(),
+        // The header's count (this said `pi + 1`, e.g. "the header says 2" for 2^31 planes).
+        declared: n_planes,
+        found: pi,
+    })?;
+    if h.len() != 7 {
+        return Err(syntax(
+            n,
+            format!(
+                "plane header needs 7 fields `<id> <n_verts> <n_components> A B C D`, found {}",
+                h.len()
+            ),
+        ));
+    }
+    let id: usize = parse_num(n, h[0], "plane id")?;
+    if id != pi + 1 {
+        return Err(syntax(n, format!("plane id is {id}, expected {}", pi + 1)));
+    }
+    let n_verts: usize = parse_num(n, h[1], "vertex count")?;
+    let n_comps: usize = parse_num(n, h[2], "component count")?;
+    let mut coefficients = [0.0; 4];
+    for k in 0..4 {
+        coefficients[k] = finite(
+            n,
+            parse_num(n, h[3 + k], "plane coefficient")?,
+            "plane coefficient",
+        )?;
+    }
+    let mut vertices = Vec::with_capacity(lines.capacity(n_verts));
+    for vi in 0..n_verts {
+        let (ln, t) = lines.next(|| ErrorKind::CountMismatch {
+            what: "vertices of the plane".into(),
+            declared: n_verts,
+            found: vi,
+        })?;
+        if t.len() != 3 {
+            let hint = if t.len() > 3 || t.first().is_some_and(|s| s.contains('h')) {
+                " (the vertex count may be wrong)"
+            } else {
+                ""
+            };
+            return Err(syntax(
+                ln,
+                format!(
+                    "vertex {vi}: expected `x y z`, found {} fields{hint}",
+                    t.len()
+                ),
+            ));
+        }
+        let mut p = [0.0; 3];
+        for k in 0..3 {
+            p[k] = finite(
+                ln,
+                parse_num(ln, t[k], "coordinate")?,
+                &format!("vertex {vi} coordinate"),
+            )?;
+        }
+        vertices.push(p);
+    }
+    let mut components = Vec::with_capacity(lines.capacity(n_comps));
+    for ci in 0..n_comps {
+        let (ln, t) = lines.next(|| ErrorKind::CountMismatch {
+            what: "components of the plane".into(),
+            declared: n_comps,
+            found: ci,
+        })?;
+        if t.len() < 2 {
+            return Err(syntax(
+                ln,
+                format!("component {ci}: expected `<n>[h<parent>] <label> i0 …`"),
+            ));
+        }
+        let (count, parent) = match t[0].split_once('h') {
+            Some((c, p)) => (c, Some(parse_num::<usize>(ln, p, "hole parent")?)),
+            None => (t[0], None),
+        };
+        let count: usize = parse_num(ln, count, "component vertex count")?;
+        let label: i32 = parse_num(ln, t[1], "label")?;
+        let idx = &t[2..];
+        if idx.len() != count {
+            return Err(DataError::new(ErrorKind::CountMismatch {
+                what: format!("indices of component {ci}"),
+                declared: count,
+                found: idx.len(),
+            })
+            .at_line(ln));
+        }
+        let mut indices = Vec::with_capacity(count);
+        for s in idx {
+            let i: usize = parse_num(ln, s, "vertex index")?;
+            if i >= n_verts {
+                return Err(syntax(
+                    ln,
+                    format!(
+                        "component {ci}: vertex index {i} out of range (the plane has {n_verts})"
+                    ),
+                ));
+            }
+            indices.push(i);
+        }
+        if let Some(p) = parent {
+            if p >= n_comps || p == ci {
+                return Err(syntax(
+                    ln,
+                    format!(
+                        "component {ci}: hole parent {p} is not another component of this plane"
+                    ),
+                ));
+            }
+        }
+        components.push(Component {
+            line: ln,
+            label,
+            parent,
+            indices,
+        });
+    }
+    Ok(RawPlane {
+        line: n,
+        coefficients,
+        vertices,
+        components,
+    })
+}
+
+/// Class label of every component: solids keep their label, holes take their parent's.
+fn component_classes(plane: &RawPlane, solid_labels: &BTreeSet<i32>) -> Result<Vec<i32>> {
+    plane
+        .components
+        .iter()
+        .enumerate()
+        .map(|(ci, c)| {
+            let Some(p) = c.parent else {
+                return Ok(c.label);
+            };
+            let parent = &plane.components[p];
+            if parent.parent.is_some() {
+                return Err(syntax(
+                    c.line,
+                    format!("component {ci}: its parent {p} is itself a hole"),
+                ));
+            }
+            let upstream_marker = c.label == 2 && parent.label == 1;
+            if c.label == parent.label || (upstream_marker && !solid_labels.contains(&2)) {
+                Ok(parent.label)
+            } else {
+                Err(syntax(
+                    c.line,
+                    format!(
+                        "component {ci}: hole labelled {} inside component {p} labelled {}; a hole \
+                         must carry its parent's label (or 2 under 1 in single-object files)",
+                        c.label, parent.label
+                    ),
+                ))
+            }
+        })
+        .collect()
+}
+
+fn solid_labels(file: &RawFile) -> BTreeSet<i32> {
+    file.planes
+        .iter()
+        .flat_map(|p| &p.components)
+        .filter(|c| c.parent.is_none())
+        .map(|c| c.label)
+        .collect()
+}
+
+fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let n = dot(a, a).sqrt();
+    a.map(|x| x / n)
+}
+
+/// Builds the frame of one file for the given sequence classes (sorted labels).
+fn to_frame(file: &RawFile, time: f64, labels: &[i32]) -> Result<Frame> {
+    let solids = solid_labels(file);
+    let all: Vec<[f64; 3]> = file
+        .planes
+        .iter()
+        .flat_map(|p| p.vertices.iter().copied())
+        .collect();
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in &all {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if all.is_empty() {
+        (lo, hi) = ([0.0; 3], [0.0; 3]);
+    }
+    let diag = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+    let tolerance = (1e-6 * diag).max(1e-12);
+    // At least one unit of margin when the file is a single point or empty.
+    let margin = if diag > 0.0 { 0.05 * diag } else { 1.0 };
+    let (glo, ghi) = (lo.map(|x| x - margin), hi.map(|x| x + margin));
+    let centroid_all = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+    let mut planes = Vec::with_capacity(file.planes.len());
+    for (pi, rp) in file.planes.iter().enumerate() {
+        let plane = to_plane(rp, labels, &solids, tolerance, (glo, ghi), centroid_all)
+            .map_err(|e| e.at_plane(pi).at_line(rp.line))?;
+        planes.push(plane);
+    }
+    Ok(Frame { time, planes })
+}
+
+fn to_plane(
+    rp: &RawPlane,
+    labels: &[i32],
+    solids: &BTreeSet<i32>,
+    tolerance: f64,
+    (glo, ghi): ([f64; 3], [f64; 3]),
+    centroid_all: [f64; 3],
+) -> Result<Plane> {
+    let [a, b, c, d] = rp.coefficients;
+    let len = (a * a + b * b + c * c).sqrt();
+    if len == 0.0 {
+        return Err(ErrorKind::Degenerate("plane normal (A, B, C) is zero".into()).into());
+    }
+    let n = [a / len, b / len, c / len];
+    let offset = d / len;
+    for (vi, p) in rp.vertices.iter().enumerate() {
+        let distance = (dot(n, *p) + offset).abs();
+        if distance > tolerance {
+            return Err(ErrorKind::OffPlane {
+                vertex: vi,
+                distance,
+                tolerance,
+            }
+            .into());
+        }
+    }
+    let axis = (0..3)
+        .min_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs()))
+        .unwrap_or(0);
+    let mut e = [0.0; 3];
+    e[axis] = 1.0;
+    let u = normalize(std::array::from_fn(|k| e[k] - dot(e, n) * n[k]));
+    let v = cross(n, u);
+    let centroid = if rp.vertices.is_empty() {
+        centroid_all
+    } else {
+        let m = rp.vertices.len() as f64;
+        std::array::from_fn(|k| rp.vertices.iter().map(|p| p[k]).sum::<f64>() / m)
+    };
+    let h = dot(n, centroid) + offset;
+    let origin = std::array::from_fn(|k| centroid[k] - h * n[k]);
+    let mut plane = Plane {
+        origin,
+        u,
+        v,
+        roi: Rect {
+            min: [f64::INFINITY; 2],
+            max: [f64::NEG_INFINITY; 2],
+        },
+        annotations: Vec::new(),
+    };
+    for corner in 0..8 {
+        let x = std::array::from_fn(|k| if corner >> k & 1 == 1 { ghi[k] } else { glo[k] });
+        let q = plane.to_plane(x);
+        plane.roi.min = std::array::from_fn(|k| plane.roi.min[k].min(q[k]));
+        plane.roi.max = std::array::from_fn(|k| plane.roi.max[k].max(q[k]));
+    }
+    let classes = component_classes(rp, solids)?;
+    let polys: Vec<Polygon> = rp
+        .components
+        .iter()
+        .map(|c| {
+            c.indices
+                .iter()
+                .map(|&i| plane.to_plane(rp.vertices[i]))
+                .collect()
+        })
+        .collect();
+    for (ci, comp) in rp.components.iter().enumerate() {
+        if let Some(p) = comp.parent {
+            if polys[ci].len() >= 3 && polys[p].len() >= 3 && !contains(&polys[p], polys[ci][0]) {
+                return Err(syntax(
+                    comp.line,
+                    format!(
+                        "component {ci} is marked as a hole of component {p} but lies outside it"
+                    ),
+                ));
+            }
+        }
+    }
+    plane.annotations = labels
+        .iter()
+        .enumerate()
+        .map(|(k, &label)| Annotation {
+            class: k,
+            polygons: polys
+                .iter()
+                .zip(&classes)
+                .filter(|(_, &l)| l == label)
+                .map(|(p, _)| p.clone())
+                .collect(),
+        })
+        .collect();
+    Ok(plane)
+}
+
+fn read_raw(path: &Path) -> Result<RawFile> {
+    let text = std::fs::read_to_string(path).map_err(|e| DataError::new(e.into()).in_file(path))?;
+    parse_file(&text).map_err(|e| e.in_file(path))
+}
+
+/// Builds a sequence from parsed files and their times; errors carry file and timestep.
+fn build(files: Vec<(PathBuf, f64, RawFile)>, names: &LabelNames) -> Result<Sequence> {
+    let labels: Vec<i32> = files
+        .iter()
+        .flat_map(|(_, _, f)| solid_labels(f))
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    let classes = labels
+        .iter()
+        .map(|&label| ClassInfo {
+            name: names.name(label),
+            label,
+        })
+        .collect();
+    let mut frames = Vec::with_capacity(files.len());
+    for (i, (path, time, file)) in files.iter().enumerate() {
+        frames.push(
+            to_frame(file, *time, &labels).map_err(|e| e.at_frame(i, Some(*time)).in_file(path))?,
+        );
+    }
+    let paths: Vec<&PathBuf> = files.iter().map(|(p, _, _)| p).collect();
+    Sequence::new(classes, frames).map_err(|e| match e.location.frame {
+        Some((i, _)) if i < paths.len() => {
+            let p = paths[i].clone();
+            e.in_file(&p)
+        }
+        // Errors of the whole sequence (no class at all, a class never contoured) have no
+        // timestep; with a single file they still belong to it, so name it (`read_sequence`
+        // names the manifest otherwise).
+        _ if paths.len() == 1 => {
+            let p = paths[0].clone();
+            e.in_file(&p)
+        }
+        _ => e,
+    })
+}
+
+/// Parses one `.csl` document held in memory as a single timestep at time 0 (`name` is used in
+/// error messages).
+pub fn parse(text: &str, name: &Path, names: &LabelNames) -> Result<Sequence> {
+    let file = parse_file(text).map_err(|e| e.in_file(name))?;
+    build(vec![(name.to_path_buf(), 0.0, file)], names)
+}
+
+/// Reads one `.csl` file as a static sequence (one timestep at time 0).
+pub fn read(path: &Path, names: &LabelNames) -> Result<Sequence> {
+    build(vec![(path.to_path_buf(), 0.0, read_raw(path)?)], names)
+}
+
+/// Reads a sequence manifest (see the [module docs](self)) and the `.csl` files it lists.
+pub fn read_sequence(manifest: &Path, names: &LabelNames) -> Result<Sequence> {
+    let text = std::fs::read_to_string(manifest)
+        .map_err(|e| DataError::new(e.into()).in_file(manifest))?;
+    let dir = manifest.parent().unwrap_or(Path::new("."));
+    let mut files = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let at = |what: String| syntax(i + 1, what).in_file(manifest);
+        let (time, path) = line
+            .split_once(char::is_whitespace)
+            .ok_or_else(|| at(format!("expected `<time> <path>`, found `{line}`")))?;
+        let time: f64 = time
+            .parse()
+            .map_err(|_| at(format!("time `{time}` is not a number")))?;
+        if !time.is_finite() {
+            return Err(at(format!("time `{time}` is not finite")));
+        }
+        let path = dir.join(path.trim());
+        let raw = read_raw(&path)?;
+        files.push((path, time, raw));
+    }
+    if files.is_empty() {
+        return Err(
+            DataError::new(ErrorKind::Empty("the manifest lists no file".into())).in_file(manifest),
+        );
+    }
+    // Errors that name no file of their own (of the whole sequence) name the manifest.
+    build(files, names).map_err(|e| e.in_file(manifest))
+}

@@ -1,0 +1,31 @@
+//! DynaSlice's input side: the sequence of annotated cross-sections ([`Sequence`]), its readers
+//! and writers, the 2D geometry of contours, frame selections, and the synthetic 4D benchmark.
+//!
+//! | source | entry point |
+//! | --- | --- |
+//! | native JSON (`docs/data-format.md`) | [`native::read`], [`native::write`] |
+//! | `.csl` file or manifest | [`csl::read`], [`csl::read_sequence`] |
+//! | NIfTI label volume, resliced | [`nifti::read`] with [`reslice::ResliceOptions`] |
+//! | the synthetic benchmark | [`synth::slice_sequence`], [`synth::write_benchmark`] |
+//!
+//! Every reader returns a validated [`Sequence`] or a [`DataError`] that names the file, line,
+//! timestep, plane, class and what is wrong. Nothing panics on input and nothing is dropped
+//! silently.
+
+pub mod atomic;
+pub mod csl;
+pub mod error;
+pub mod frame_range;
+pub mod geometry;
+pub mod label_names;
+pub mod native;
+pub mod nifti;
+pub mod nifti_stream;
+pub mod reslice;
+pub mod sequence;
+pub mod synth;
+
+pub use error::{DataError, ErrorKind, Location, Result};
+pub use frame_range::FrameRange;
+pub use label_names::LabelNames;
+pub use sequence::{Aabb, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};

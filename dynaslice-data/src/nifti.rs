@@ -1,0 +1,432 @@
+//! NIfTI-1 label volumes (`.nii`, `.nii.gz`; 3D or 4D): reading with world coordinates from the
+//! sform/qform, and writing (the synthetic benchmark's ground truth).
+//!
+//! Only label data is accepted: an integer voxel type and no intensity scaling. Files are
+//! decompressed by content (gzip magic), not by name. Reading into a [`Sequence`] goes through
+//! [`super::reslice`]; see `docs/data-format.md` for the protocol.
+
+use std::io::Read;
+use std::path::Path;
+
+use nifti::{Endianness, NiftiHeader, NiftiType};
+
+use super::error::{DataError, ErrorKind, Result};
+use super::label_names::LabelNames;
+use super::reslice::{reslice, ResliceOptions};
+use super::sequence::Sequence;
+
+/// A label volume: `frames` frames of `dims` voxels, voxel (i, j, k) of frame f at
+/// `labels[i + nx·(j + ny·(k + nz·f))]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LabelVolume {
+    /// Voxels per axis (x, y, z).
+    pub dims: [usize; 3],
+    /// Number of frames (1 for a 3D file).
+    pub frames: usize,
+    /// Voxel index → world: `world = affine[r][0..3] · (i, j, k) + affine[r][3]` for row r.
+    pub affine: [[f64; 4]; 3],
+    /// Time between frames (`pixdim[4]`, 0 read as 1).
+    pub frame_interval: f64,
+    /// Label values, x fastest.
+    pub labels: Vec<i32>,
+}
+
+impl LabelVolume {
+    /// The label at voxel (i, j, k) of frame `f`; 0 (background) outside the volume.
+    #[inline]
+    pub fn label(&self, i: isize, j: isize, k: isize, f: usize) -> i32 {
+        let [nx, ny, nz] = self.dims;
+        if i < 0 || j < 0 || k < 0 || i as usize >= nx || j as usize >= ny || k as usize >= nz {
+            return 0;
+        }
+        self.labels[i as usize + nx * (j as usize + ny * (k as usize + nz * f))]
+    }
+
+    /// World position of voxel coordinates `q` (continuous, voxel centres at integers).
+    pub fn to_world(&self, q: [f64; 3]) -> [f64; 3] {
+        self.affine
+            .map(|r| r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + r[3])
+    }
+}
+
+/// Bytes of a NIfTI-1 header; the voxel data starts at `vox_offset`, at least 4 bytes later
+/// (the extender).
+const HEADER_BYTES: usize = 348;
+
+/// Deflate's largest expansion (one 258-byte match per two bits): a `.nii.gz` of n bytes cannot
+/// hold more than this × n bytes of NIfTI.
+const MAX_DEFLATE_RATIO: usize = 1032;
+
+/// Reads a label volume.
+///
+/// Every size in the header is checked, with overflow-checked arithmetic, against what the file
+/// can hold before anything is allocated or decompressed for it: voxels are read from
+/// `vox_offset` (the extensions before it are skipped unread), as many bytes as the header's
+/// dimensions and datatype need, and a gzip stream is read to its end so its checksum is verified.
+pub fn read_volume(path: &Path) -> Result<LabelVolume> {
+    let at = |kind: ErrorKind| DataError::new(kind).in_file(path);
+    let unreadable =
+        |e: &dyn std::fmt::Display| at(ErrorKind::Nifti(format!("unreadable or truncated: {e}")));
+    let bytes = std::fs::read(path).map_err(|e| at(e.into()))?;
+    let gz = bytes.starts_with(&[0x1f, 0x8b]);
+    // How many bytes of NIfTI the file can hold: the bound for every size the header claims.
+    let capacity = if gz {
+        bytes.len().saturating_mul(MAX_DEFLATE_RATIO)
+    } else {
+        bytes.len()
+    };
+    // Streamed, not read through `InMemNiftiObject`: that reserves whatever the header's dims
+    // (and each extension's size field) claim before reading, e.g. terabytes for 32767³ voxels
+    // in a 400-byte file, and reads the voxels right after the extensions instead of at
+    // `vox_offset`.
+    let mut source: Box<dyn Read + '_> = if gz {
+        Box::new(flate2::read::GzDecoder::new(&bytes[..]))
+    } else {
+        Box::new(&bytes[..])
+    };
+    let header = NiftiHeader::from_reader(&mut source).map_err(|e| unreadable(&e))?;
+    if header.magic == *b"ni1\0" {
+        return Err(at(ErrorKind::Nifti(
+            "a header-only file (magic \"ni1\"); give the single-file .nii or .nii.gz".into(),
+        )));
+    }
+    let datatype = header.data_type().map_err(|e| {
+        at(ErrorKind::Nifti(format!(
+            "unknown datatype code {}: {e}",
+            header.datatype
+        )))
+    })?;
+    let datatype = VoxelType::of(datatype).map_err(at)?;
+    let (dims, frames) = dimensions(&header).map_err(at)?;
+    let affine = affine(&header).map_err(at)?;
+    check_scaling(&header).map_err(at)?;
+    let (start, size) = data_extent(&header, datatype, dims, frames, capacity, gz).map_err(at)?;
+    let skip = (start - HEADER_BYTES) as u64;
+    let skipped = std::io::copy(&mut (&mut source).take(skip), &mut std::io::sink())
+        .map_err(|e| unreadable(&e))?;
+    // Exact for a plain file (its length was checked); a gzip stream grows with what it holds.
+    let mut raw = Vec::with_capacity(if gz { 0 } else { size });
+    (&mut source)
+        .take(size as u64)
+        .read_to_end(&mut raw)
+        .map_err(|e| unreadable(&e))?;
+    if skipped < skip || raw.len() < size {
+        let [nx, ny, nz] = dims;
+        return Err(at(ErrorKind::Nifti(format!(
+            "truncated: {} of the {size} bytes of voxel data (dim {nx}×{ny}×{nz}×{frames} of \
+             {datatype:?}) at vox_offset {start}",
+            raw.len()
+        ))));
+    }
+    if gz {
+        // Whatever follows the voxels, and the gzip trailer: verifies the CRC, so a corrupted
+        // stream is an error rather than silently wrong labels.
+        std::io::copy(&mut source, &mut std::io::sink()).map_err(|e| unreadable(&e))?;
+    }
+    // `raw` holds exactly `size` = voxels × width bytes (checked above), so `decode` yields
+    // exactly the voxels the header's dimensions count.
+    let labels = decode(&raw, datatype, header.endianness).map_err(at)?;
+    let dt = f64::from(header.pixdim[4]);
+    if !dt.is_finite() || dt < 0.0 {
+        return Err(at(ErrorKind::Nifti(format!(
+            "pixdim[4] (time between frames) is {dt}"
+        ))));
+    }
+    Ok(LabelVolume {
+        dims,
+        frames,
+        affine,
+        frame_interval: if dt == 0.0 { 1.0 } else { dt },
+        labels,
+    })
+}
+
+/// The voxel types a label volume may have: NIfTI's integer types, the only table of them.
+#[derive(Clone, Copy, Debug)]
+enum VoxelType {
+    Uint8,
+    Int8,
+    Uint16,
+    Int16,
+    Uint32,
+    Int32,
+    Uint64,
+    Int64,
+}
+
+impl VoxelType {
+    fn of(t: NiftiType) -> std::result::Result<VoxelType, ErrorKind> {
+        Ok(match t {
+            NiftiType::Uint8 => VoxelType::Uint8,
+            NiftiType::Int8 => VoxelType::Int8,
+            NiftiType::Uint16 => VoxelType::Uint16,
+            NiftiType::Int16 => VoxelType::Int16,
+            NiftiType::Uint32 => VoxelType::Uint32,
+            NiftiType::Int32 => VoxelType::Int32,
+            NiftiType::Uint64 => VoxelType::Uint64,
+            NiftiType::Int64 => VoxelType::Int64,
+            other => {
+                return Err(ErrorKind::Nifti(format!(
+                    "voxel type {other:?} is not an integer type; a label volume needs integer \
+                     labels"
+                )))
+            }
+        })
+    }
+
+    fn bytes(self) -> usize {
+        match self {
+            VoxelType::Uint8 | VoxelType::Int8 => 1,
+            VoxelType::Uint16 | VoxelType::Int16 => 2,
+            VoxelType::Uint32 | VoxelType::Int32 => 4,
+            VoxelType::Uint64 | VoxelType::Int64 => 8,
+        }
+    }
+}
+
+/// Where the voxel data lies: (first byte, bytes), checked against the `capacity` of the file
+/// with overflow-checked arithmetic.
+fn data_extent(
+    h: &NiftiHeader,
+    t: VoxelType,
+    dims: [usize; 3],
+    frames: usize,
+    capacity: usize,
+    gz: bool,
+) -> std::result::Result<(usize, usize), ErrorKind> {
+    let bytes_per_voxel = t.bytes();
+    if i32::from(h.bitpix) != 8 * bytes_per_voxel as i32 {
+        return Err(ErrorKind::Nifti(format!(
+            "bitpix {} disagrees with datatype {t:?} ({} bits)",
+            h.bitpix,
+            8 * bytes_per_voxel
+        )));
+    }
+    let offset = h.vox_offset;
+    if !(offset.is_finite() && offset >= 0.0) {
+        return Err(ErrorKind::Nifti(format!(
+            "vox_offset {offset} is not a byte offset"
+        )));
+    }
+    // Below the header and extender means right after them (as the nifti crate reads it).
+    let start = (offset as usize).max(HEADER_BYTES + 4);
+    let size = dims
+        .iter()
+        .chain([&frames])
+        .try_fold(bytes_per_voxel, |n, &d| n.checked_mul(d));
+    let end = size.and_then(|n| n.checked_add(start));
+    match (size, end) {
+        (Some(size), Some(end)) if end <= capacity => Ok((start, size)),
+        _ => {
+            let [nx, ny, nz] = dims;
+            let limit = if gz {
+                ", deflate's limit for its size"
+            } else {
+                ""
+            };
+            Err(ErrorKind::Nifti(format!(
+                "dim {nx}×{ny}×{nz}×{frames} of {t:?} at vox_offset {start} needs more bytes \
+                 than the file can hold ({capacity}{limit})"
+            )))
+        }
+    }
+}
+
+/// Reads a label volume and reslices it into a sequence (see [`super::reslice`]).
+pub fn read(path: &Path, options: &ResliceOptions, names: &LabelNames) -> Result<Sequence> {
+    let volume = read_volume(path)?;
+    reslice(&volume, options, names).map_err(|e| e.in_file(path))
+}
+
+fn dimensions(h: &NiftiHeader) -> std::result::Result<([usize; 3], usize), ErrorKind> {
+    let n = h.dim[0] as usize;
+    if !(1..=7).contains(&n) {
+        return Err(ErrorKind::Nifti(format!(
+            "dim[0] = {} is not 1..7",
+            h.dim[0]
+        )));
+    }
+    let d = |k: usize| if k <= n { h.dim[k] as usize } else { 1 };
+    if let Some(k) = (5..=n).find(|&k| h.dim[k] > 1) {
+        return Err(ErrorKind::Nifti(format!(
+            "dimension {k} has size {}; only x, y, z and t are supported",
+            h.dim[k]
+        )));
+    }
+    let dims = [d(1), d(2), d(3)];
+    if dims.contains(&0) || d(4) == 0 {
+        return Err(ErrorKind::Nifti(format!(
+            "empty volume: dim = {:?}",
+            &h.dim[..=n]
+        )));
+    }
+    Ok((dims, d(4)))
+}
+
+/// Voxel → world per the NIfTI-1 rules: sform if `sform_code > 0`, else qform if
+/// `qform_code > 0`, else the voxel spacing alone.
+fn affine(h: &NiftiHeader) -> std::result::Result<[[f64; 4]; 3], ErrorKind> {
+    let a = if h.sform_code > 0 {
+        [h.srow_x, h.srow_y, h.srow_z].map(|r| r.map(f64::from))
+    } else if h.qform_code > 0 {
+        let (b, c, d) = (
+            f64::from(h.quatern_b),
+            f64::from(h.quatern_c),
+            f64::from(h.quatern_d),
+        );
+        let a = (1.0 - (b * b + c * c + d * d)).max(0.0).sqrt();
+        let r = [
+            [
+                a * a + b * b - c * c - d * d,
+                2.0 * (b * c - a * d),
+                2.0 * (b * d + a * c),
+            ],
+            [
+                2.0 * (b * c + a * d),
+                a * a + c * c - b * b - d * d,
+                2.0 * (c * d - a * b),
+            ],
+            [
+                2.0 * (b * d - a * c),
+                2.0 * (c * d + a * b),
+                a * a + d * d - c * c - b * b,
+            ],
+        ];
+        let qfac = if h.pixdim[0] < 0.0 { -1.0 } else { 1.0 };
+        let s = [
+            f64::from(h.pixdim[1]),
+            f64::from(h.pixdim[2]),
+            qfac * f64::from(h.pixdim[3]),
+        ];
+        let o = [h.quatern_x, h.quatern_y, h.quatern_z].map(f64::from);
+        std::array::from_fn(|i| [r[i][0] * s[0], r[i][1] * s[1], r[i][2] * s[2], o[i]])
+    } else {
+        let s = |k: usize| {
+            let v = f64::from(h.pixdim[k]).abs();
+            if v > 0.0 {
+                v
+            } else {
+                1.0
+            }
+        };
+        [
+            [s(1), 0.0, 0.0, 0.0],
+            [0.0, s(2), 0.0, 0.0],
+            [0.0, 0.0, s(3), 0.0],
+        ]
+    };
+    let finite = a.iter().flatten().all(|v| v.is_finite());
+    if !finite || det3(&a) == 0.0 {
+        return Err(ErrorKind::Nifti(format!(
+            "voxel-to-world transform is singular or not finite: {a:?}"
+        )));
+    }
+    Ok(a)
+}
+
+/// Determinant of an affine's 3×3 linear part (the voxel volume, up to sign).
+pub fn det3(a: &[[f64; 4]; 3]) -> f64 {
+    a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+}
+
+fn check_scaling(h: &NiftiHeader) -> std::result::Result<(), ErrorKind> {
+    // nibabel writes NaN for "unset"; NIfTI-1 says a zero slope means no scaling.
+    let slope_ok = h.scl_slope.is_nan() || h.scl_slope == 0.0 || h.scl_slope == 1.0;
+    let inter_ok = h.scl_inter.is_nan() || h.scl_inter == 0.0;
+    if slope_ok && inter_ok {
+        Ok(())
+    } else {
+        Err(ErrorKind::Nifti(format!(
+            "intensity scaling (scl_slope {}, scl_inter {}) means these are not label values",
+            h.scl_slope, h.scl_inter
+        )))
+    }
+}
+
+fn decode(raw: &[u8], t: VoxelType, e: Endianness) -> std::result::Result<Vec<i32>, ErrorKind> {
+    fn words<const N: usize>(raw: &[u8], e: Endianness) -> impl Iterator<Item = [u8; N]> + '_ {
+        raw.chunks_exact(N).map(move |c| {
+            let mut w: [u8; N] = c.try_into().unwrap_or([0; N]);
+            if e == Endianness::Big {
+                w.reverse();
+            }
+            w
+        })
+    }
+    let wide = |v: i128| {
+        i32::try_from(v)
+            .map_err(|_| ErrorKind::Nifti(format!("label value {v} does not fit in i32")))
+    };
+    Ok(match t {
+        VoxelType::Uint8 => raw.iter().map(|&b| i32::from(b)).collect(),
+        VoxelType::Int8 => raw.iter().map(|&b| i32::from(b as i8)).collect(),
+        VoxelType::Int16 => words::<2>(raw, e)
+            .map(|w| i32::from(i16::from_le_bytes(w)))
+            .collect(),
+        VoxelType::Uint16 => words::<2>(raw, e)
+            .map(|w| i32::from(u16::from_le_bytes(w)))
+            .collect(),
+        VoxelType::Int32 => words::<4>(raw, e).map(i32::from_le_bytes).collect(),
+        VoxelType::Uint32 => words::<4>(raw, e)
+            .map(|w| wide(i128::from(u32::from_le_bytes(w))))
+            .collect::<std::result::Result<_, _>>()?,
+        VoxelType::Int64 => words::<8>(raw, e)
+            .map(|w| wide(i128::from(i64::from_le_bytes(w))))
+            .collect::<std::result::Result<_, _>>()?,
+        VoxelType::Uint64 => words::<8>(raw, e)
+            .map(|w| wide(i128::from(u64::from_le_bytes(w))))
+            .collect::<std::result::Result<_, _>>()?,
+    })
+}
+
+/// Writes `volume` as NIfTI-1 (gzip-compressed when `path` ends in `.gz`): the affine as the
+/// sform (`sform_code` 2, aligned; no qform), `pixdim[4]` = frame interval, and the narrowest of
+/// u8/i16/i32 that holds the labels.
+pub fn write_volume(volume: &LabelVolume, path: &Path) -> Result<()> {
+    let at = |e: nifti::NiftiError| {
+        DataError::new(ErrorKind::Nifti(format!("cannot write: {e}"))).in_file(path)
+    };
+    let [nx, ny, nz] = volume.dims;
+    let a = volume.affine;
+    let spacing: [f32; 3] =
+        std::array::from_fn(|c| (0..3).map(|r| a[r][c] * a[r][c]).sum::<f64>().sqrt() as f32);
+    let header = NiftiHeader {
+        pixdim: [
+            1.0,
+            spacing[0],
+            spacing[1],
+            spacing[2],
+            volume.frame_interval as f32,
+            1.0,
+            1.0,
+            1.0,
+        ],
+        sform_code: 2,
+        qform_code: 0,
+        srow_x: a[0].map(|v| v as f32),
+        srow_y: a[1].map(|v| v as f32),
+        srow_z: a[2].map(|v| v as f32),
+        xyzt_units: 2 | 8, // millimetres, seconds (NIFTI_UNITS_MM | NIFTI_UNITS_SEC)
+        ..NiftiHeader::default()
+    };
+    let shape = (nx, ny, nz, volume.frames);
+    // NIfTI stores x fastest; ndarray's [x, y, z, t] array is written transposed by the crate.
+    let index = |(i, j, k, f): (usize, usize, usize, usize)| {
+        volume.labels[i + nx * (j + ny * (k + nz * f))]
+    };
+    let (lo, hi) = volume
+        .labels
+        .iter()
+        .fold((0, 0), |(lo, hi), &v| (v.min(lo), v.max(hi)));
+    let writer = nifti::writer::WriterOptions::new(path).reference_header(&header);
+    if lo >= 0 && hi <= i32::from(u8::MAX) {
+        writer.write_nifti(&ndarray::Array4::from_shape_fn(shape, |q| index(q) as u8))
+    } else if lo >= i32::from(i16::MIN) && hi <= i32::from(i16::MAX) {
+        writer.write_nifti(&ndarray::Array4::from_shape_fn(shape, |q| index(q) as i16))
+    } else {
+        writer.write_nifti(&ndarray::Array4::from_shape_fn(shape, index))
+    }
+    .map_err(at)
+}

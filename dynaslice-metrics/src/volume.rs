@@ -1,0 +1,140 @@
+//! The volume of each class over time (e.g. a lung through a breathing cycle, a ventricle
+//! through a heartbeat), as a CSV table (the chart is drawn by `dynaslice-figures`).
+//!
+//! Volumes come from meshes: the enclosed volume of each class's closed surface, extracted as
+//! the boundary of the Eq. 11 partition (so classes never share volume and the values are those
+//! of the label volume `dynaslice labels` writes) over the model's domain. A mesh with its
+//! vertices placed on the surface by a Newton step is accurate to O(h²) in the cell size h,
+//! where counting label voxels is accurate to O(h) (the surface cuts voxels anywhere), and the
+//! sparse extractor costs far fewer evaluations than a dense voxel grid. The test checks the
+//! two methods against each other and against closed forms.
+
+use anyhow::{Context, Result};
+use dynaslice_core::Model;
+use dynaslice_mesh::{self as mesh, Surfaces};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Class volumes at a list of times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VolumeCurve {
+    /// Class names, in model order.
+    pub classes: Vec<String>,
+    /// World times.
+    pub times: Vec<f64>,
+    /// `volumes[time][class]` in world units cubed.
+    pub volumes: Vec<Vec<f64>>,
+}
+
+/// The volume of every class of `model` at each of `times`, from meshes with `resolution`
+/// cells along the longest axis of its domain.
+pub fn volume_curve(model: &Model, times: &[f64], resolution: u32) -> Result<VolumeCurve> {
+    let classes: Vec<usize> = (0..model.num_classes()).collect();
+    let options = mesh::Options {
+        resolution,
+        surfaces: Surfaces::Partition,
+        ..mesh::Options::default()
+    };
+    let volumes = times
+        .iter()
+        .map(|&t| {
+            let x = mesh::extract(model, model.domain().bounds(), t as f32, &classes, &options)?;
+            Ok(x.meshes.iter().map(|m| m.enclosed_volume()).collect())
+        })
+        .collect::<Result<_>>()?;
+    Ok(VolumeCurve {
+        classes: model.classes().map(|c| c.name.to_string()).collect(),
+        times: times.to_vec(),
+        volumes,
+    })
+}
+
+impl VolumeCurve {
+    /// CSV: a `time` column, then one column per class (its name, quoted).
+    pub fn to_csv(&self) -> String {
+        let mut s = String::from("time");
+        for c in &self.classes {
+            let _ = write!(s, ",\"{}\"", c.replace('"', "\"\""));
+        }
+        s.push('\n');
+        for (t, v) in self.times.iter().zip(&self.volumes) {
+            let _ = write!(s, "{t}");
+            for x in v {
+                let _ = write!(s, ",{x}");
+            }
+            s.push('\n');
+        }
+        s
+    }
+
+    /// Writes the CSV to `path`.
+    pub fn write_csv(&self, path: &Path) -> Result<()> {
+        std::fs::write(path, self.to_csv())
+            .with_context(|| format!("cannot write {}", path.display()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynaslice_test_support::spheres::{self, Sphere};
+    use dynaslice_volume::{label_indices, LabelGrid};
+
+    /// Two overlapping spheres, one growing: mesh volumes against the closed forms (ball minus
+    /// the half lens the partition gives away) and against counted label voxels.
+    #[test]
+    fn mesh_volumes_match_closed_forms_and_voxel_counts() {
+        let s = [
+            Sphere::new([-0.2, 0.0, 0.0], 0.45, 0.1),
+            Sphere::new([0.4, 0.1, 0.0], 0.3, 0.0),
+        ];
+        let bytes = spheres::model(&s, &[("a", 1), ("b", 2)]);
+        let model = Model::from_bytes(&bytes).unwrap();
+        let times = [0.0, 1.0, 2.0];
+        let curve = volume_curve(&model, &times, 96).unwrap();
+        let (lo, hi) = model.domain().bounds();
+        let grid = LabelGrid::from_bounds(
+            lo.map(f64::from),
+            hi.map(f64::from),
+            [40.0 / 128.0; 3],
+            times.to_vec(),
+        )
+        .unwrap();
+        let mut labels = vec![0u32; grid.voxels_per_frame()];
+        for (f, &t) in times.iter().enumerate() {
+            label_indices(&model, &grid, t, &mut labels).unwrap();
+            for c in 0..2 {
+                let voxels = labels.iter().filter(|&&l| l == c as u32 + 1).count() as f64;
+                let counted = voxels * grid.voxel_volume();
+                let meshed = curve.volumes[f][c];
+                assert!(
+                    (meshed - counted).abs() < 0.01 * counted,
+                    "{t} {c}: {meshed} vs {counted}"
+                );
+            }
+            // The two balls overlap in a lens; the partition splits it along the surface where
+            // the fields tie, so the classes' volumes add up to the union exactly.
+            let [ra, rb] = [s[0].world_radius(t), s[1].world_radius(t)];
+            let ca = s[0].world_centre();
+            let cb = s[1].world_centre();
+            let d = (0..3).map(|a| (ca[a] - cb[a]).powi(2)).sum::<f64>().sqrt();
+            let lens = std::f64::consts::PI
+                * (ra + rb - d).powi(2)
+                * (d * d + 2.0 * d * (ra + rb) - 3.0 * (ra - rb).powi(2))
+                / (12.0 * d);
+            let union = s[0].world_volume(t) + s[1].world_volume(t) - lens;
+            let total: f64 = curve.volumes[f].iter().sum();
+            assert!(
+                (total - union).abs() < 2e-3 * union,
+                "{t}: {total} vs {union}"
+            );
+        }
+        assert!(
+            curve.volumes[2][0] > curve.volumes[0][0] * 1.2,
+            "class a grows"
+        );
+        let csv = curve.to_csv();
+        assert!(csv.starts_with("time,\"a\",\"b\"\n0,"), "{csv}");
+        assert_eq!(csv.lines().count(), 4);
+    }
+}

@@ -1,0 +1,426 @@
+//! The optimisation loop: sample, loss and exact gradient, Adam, clamp ω_t, log, checkpoint.
+//!
+//! Determinism: the samples of step s depend only on (seed, s) (see [`Sampler`]), the gradient
+//! only on the thread count (see [`super::objective`]), so a run resumed from a checkpoint ends
+//! with the same model, bit for bit, as an uninterrupted one with the same seed and threads.
+
+use super::adam::{Adam, AdamConfig};
+use super::checkpoint::Checkpoint;
+use super::loss::{LossTerms, LossWeights};
+use super::network::Network;
+use super::objective::{Batch, Objective};
+use anyhow::{Context, Result};
+use dynaslice_core::Layout;
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// A source of training samples in the network's normalised frame.
+pub trait Sampler {
+    /// Fills `batch` with the samples of step `step`: a pure function of (seed, step), so a
+    /// resumed run sees the same samples.
+    fn sample(&mut self, seed: u64, step: u64, batch: &mut Batch);
+    /// Upper bound on the samples in any one set of a batch (sizes the buffers).
+    fn max_set_len(&self) -> usize;
+    /// A digest of the data, stored in checkpoints.
+    fn fingerprint(&self) -> u64;
+}
+
+/// Options of one training run (recorded in the model's metadata).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainOptions {
+    /// Widths of the sine layers.
+    pub widths: Vec<u32>,
+    /// Steps of the full schedule; the run stops here at the latest.
+    pub steps: u64,
+    /// Wall-clock budget; the run stops early when it is spent.
+    pub time_limit: Option<Duration>,
+    /// SIREN's ω₀: the first layer's spatial frequency scale over the normalised cube.
+    pub omega_0: f32,
+    /// Initial value of every channel, normalised units (see [`Network::siren`]).
+    pub offset: f32,
+    /// Seed of initialisation and sampling.
+    pub seed: u64,
+    /// Worker threads.
+    pub threads: usize,
+    /// Initial learning rate.
+    pub lr: f32,
+    /// Final learning rate of the cosine schedule.
+    pub lr_final: f32,
+    /// Steps over which the learning rate ramps up linearly before following the cosine
+    /// (0: none). At ω₀ = 30 the first steps' full-size updates can flip large regions of a
+    /// channel inside; a short ramp prevents that (docs/training.md, "Learning-rate warm-up").
+    pub warmup_steps: u64,
+    /// Loss weights.
+    pub loss: LossWeights,
+    /// ω_t^max in normalised time (Eq. 4); `f32::INFINITY` turns temporal control off.
+    pub omega_t_max: f32,
+    /// Where to keep the checkpoint (none: no checkpoints).
+    pub checkpoint: Option<PathBuf>,
+    /// Wall time between checkpoints.
+    pub checkpoint_every: Duration,
+    /// Continue from the checkpoint if it exists.
+    pub resume: bool,
+}
+
+impl Default for TrainOptions {
+    /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
+    /// 3000 steps, ω₀ = 10, initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.2, α = 50, all threads,
+    /// no checkpoint; `omega_t_max` must be set from the data ([`super::data_sampler::temporal_bound`]).
+    fn default() -> Self {
+        TrainOptions {
+            widths: vec![256; 4],
+            steps: 3000,
+            time_limit: None,
+            omega_0: 10.0,
+            offset: 0.2,
+            seed: 0,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            lr: 1e-3,
+            lr_final: 1e-4,
+            warmup_steps: 0,
+            loss: LossWeights {
+                orientation: 0.1,
+                plane: 0.1,
+                // Measured (docs/training.md): 0.05 let real data and the thin tube overfit
+                // between planes; 0.2 is better on both.
+                regulariser: 0.2,
+                alpha: 50.0,
+            },
+            omega_t_max: f32::INFINITY,
+            checkpoint: None,
+            checkpoint_every: Duration::from_secs(120),
+            resume: false,
+        }
+    }
+}
+
+impl TrainOptions {
+    /// The options as `key = value` lines, for the model's metadata.
+    pub fn describe(&self) -> String {
+        let l = &self.loss;
+        format!(
+            "widths = {:?}\nsteps = {}\nseed = {}\nthreads = {}\nomega_0 = {}\noffset = {}\nomega_t_max = {}\n\
+             lr = {} -> {}\nwarmup_steps = {}\nlambda_orientation = {}\nlambda_plane = {}\nlambda_regulariser = {}\nalpha = {}\n",
+            self.widths, self.steps, self.seed, self.threads, self.omega_0, self.offset, self.omega_t_max, self.lr,
+            self.lr_final, self.warmup_steps, l.orientation, l.plane, l.regulariser, l.alpha
+        )
+    }
+}
+
+/// What the loop reports after each step.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    /// Steps completed.
+    pub step: u64,
+    /// Steps of the schedule.
+    pub steps: u64,
+    /// Loss terms of this step.
+    pub terms: LossTerms,
+    /// Weighted total.
+    pub loss: f64,
+    /// Learning rate used.
+    pub lr: f32,
+    /// Seconds since this process started training.
+    pub elapsed: f64,
+}
+
+/// The trained network and its history.
+pub struct Outcome {
+    /// The network.
+    pub network: Network,
+    /// Steps completed (may be fewer than `steps` when the time limit hit).
+    pub steps_done: u64,
+    /// (step, loss terms, total) of every step run by this process.
+    pub history: Vec<(u64, LossTerms, f64)>,
+    /// Wall time of this process's training.
+    pub elapsed: Duration,
+}
+
+/// Learning rate at `step` (0-based): cosine from `lr` to `lr_final` over the schedule, scaled
+/// by (step + 1) / `warmup_steps` during the warm-up.
+pub fn learning_rate(o: &TrainOptions, step: u64) -> f32 {
+    let x = (step as f64 / o.steps.max(1) as f64).min(1.0);
+    let c = 0.5 * (1.0 + (std::f64::consts::PI * x).cos());
+    let warmup = if step < o.warmup_steps {
+        (step + 1) as f64 / o.warmup_steps as f64
+    } else {
+        1.0
+    };
+    (warmup * (o.lr_final as f64 + (o.lr - o.lr_final) as f64 * c)) as f32
+}
+
+/// FNV-1a over the options and the data digest: what a checkpoint must match.
+fn fingerprint(o: &TrainOptions, num_classes: usize, data: u64) -> u64 {
+    let text = format!(
+        "{:?}|{:?}|{}|{}|{}|{}|{}|{}|{}|{}|{num_classes}|{data}",
+        o.widths,
+        o.loss,
+        o.omega_0,
+        o.offset,
+        o.seed,
+        o.threads,
+        o.lr,
+        o.lr_final,
+        o.warmup_steps,
+        o.omega_t_max
+    );
+    text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+    })
+}
+
+/// Trains a network with K = `num_classes` channels on `sampler`'s data. `on_step` sees every
+/// step and may stop the run early (e.g. on Ctrl-C); the state is checkpointed either way.
+pub fn train(
+    o: &TrainOptions,
+    num_classes: usize,
+    sampler: &mut dyn Sampler,
+    mut on_step: impl FnMut(&Progress) -> ControlFlow<()>,
+) -> Result<Outcome> {
+    let layout =
+        Layout::new(&o.widths, num_classes as u32).map_err(|e| anyhow::anyhow!("network: {e}"))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(o.threads.max(1))
+        .build()
+        .context("thread pool")?;
+    let mut net = Network::siren(layout, o.omega_0, o.offset, o.omega_t_max, o.seed);
+    let mut adam = Adam::new(net.params.len(), AdamConfig::default());
+    let print = fingerprint(o, num_classes, sampler.fingerprint());
+    let mut step = 0;
+    if let (true, Some(path)) = (o.resume, &o.checkpoint) {
+        if path.exists() {
+            let c = Checkpoint::load(path, print, net.params.len(), &adam)?;
+            net.params = c.params;
+            adam = c.adam;
+            step = c.step;
+        }
+    }
+    let mut objective = Objective::new(&net, o.threads.max(1), sampler.max_set_len());
+    let mut batch = Batch::default();
+    let mut grad = vec![0.0; net.params.len()];
+    let mut history = Vec::new();
+    let start = Instant::now();
+    let mut last_checkpoint = start;
+    let save = |net: &Network, adam: &Adam, step: u64| -> Result<()> {
+        match &o.checkpoint {
+            Some(path) => Checkpoint {
+                fingerprint: print,
+                step,
+                params: net.params.clone(),
+                adam: adam.clone(),
+            }
+            .save(path),
+            None => Ok(()),
+        }
+    };
+    while step < o.steps {
+        if o.time_limit.is_some_and(|limit| start.elapsed() >= limit) {
+            break;
+        }
+        sampler.sample(o.seed, step, &mut batch);
+        let terms = pool.install(|| objective.evaluate(&net, &batch, &o.loss, &mut grad));
+        let lr = learning_rate(o, step);
+        adam.step(&mut net.params, &grad, lr);
+        net.clamp_temporal_frequencies();
+        step += 1;
+        let loss = terms.total(&o.loss);
+        history.push((step, terms, loss));
+        let flow = on_step(&Progress {
+            step,
+            steps: o.steps,
+            terms,
+            loss,
+            lr,
+            elapsed: start.elapsed().as_secs_f64(),
+        });
+        if flow.is_break() {
+            break;
+        }
+        if last_checkpoint.elapsed() >= o.checkpoint_every {
+            save(&net, &adam, step)?;
+            last_checkpoint = Instant::now();
+        }
+    }
+    save(&net, &adam, step)?;
+    Ok(Outcome {
+        network: net,
+        steps_done: step,
+        history,
+        elapsed: start.elapsed(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::loss::{ContourSample, PlaneSample};
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    /// A pulsating sphere, r(t) = 0.45 + 0.1·sin(2πt), cut by z-planes at 5 times.
+    struct Sphere;
+
+    fn radius(t: f32) -> f32 {
+        0.45 + 0.1 * (2.0 * std::f32::consts::PI * t).sin()
+    }
+
+    impl Sampler for Sphere {
+        fn sample(&mut self, seed: u64, step: u64, b: &mut Batch) {
+            let mut rng = Pcg64Mcg::seed_from_u64(seed ^ step.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+            let n = 256;
+            b.contour_x.clear();
+            b.contour_normal.clear();
+            b.contour.clear();
+            b.plane_x.clear();
+            b.plane.clear();
+            b.space_x.clear();
+            for _ in 0..n {
+                let t = rng.random_range(0..5) as f32 / 4.0;
+                let z = rng.random_range(-4i32..=4) as f32 * 0.1;
+                let r = radius(t);
+                let rc = (r * r - z * z).max(0.0).sqrt();
+                let a = rng.random_range(0.0..std::f32::consts::TAU);
+                b.contour_x.push([rc * a.cos(), rc * a.sin(), z, t]);
+                b.contour_normal.push([a.cos(), a.sin(), 0.0]);
+                b.contour.push(ContourSample {
+                    class: 0,
+                    weight: 1.0 / n as f32,
+                });
+                let (px, py) = (
+                    rng.random_range(-1.0..1.0f32),
+                    rng.random_range(-1.0..1.0f32),
+                );
+                b.plane_x.push([px, py, z, t]);
+                let sdf2d = (px * px + py * py).sqrt() - rc;
+                b.plane.push(PlaneSample {
+                    class: 0,
+                    target: sdf2d,
+                    absent: false,
+                    weight: 1.0 / n as f32,
+                });
+                b.space_x.push([
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(0.0..1.0),
+                ]);
+            }
+        }
+        fn max_set_len(&self) -> usize {
+            256
+        }
+        fn fingerprint(&self) -> u64 {
+            1
+        }
+    }
+
+    fn options(steps: u64, checkpoint: Option<PathBuf>) -> TrainOptions {
+        TrainOptions {
+            widths: vec![48, 48],
+            steps,
+            time_limit: None,
+            omega_0: 10.0,
+            offset: 0.2,
+            seed: 3,
+            threads: 2,
+            lr: 3e-4,
+            lr_final: 3e-5,
+            warmup_steps: 0,
+            loss: LossWeights {
+                orientation: 0.1,
+                plane: 0.1,
+                regulariser: 0.05,
+                alpha: 50.0,
+            },
+            omega_t_max: 10.0,
+            checkpoint,
+            checkpoint_every: Duration::from_secs(3600),
+            resume: true,
+        }
+    }
+
+    #[test]
+    fn learns_a_pulsating_sphere() {
+        let out = train(&options(1500, None), 1, &mut Sphere, |_| {
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        let first = out.history[0].2;
+        let last = out.history.last().unwrap().2;
+        assert!(last < 0.2 * first, "loss {first} -> {last}");
+        let bytes = out
+            .network
+            .to_writer(
+                dynaslice_core::Domain::IDENTITY,
+                vec![("ball".into(), 1)],
+                String::new(),
+            )
+            .to_bytes();
+        let model = dynaslice_core::Model::from_bytes(&bytes).unwrap();
+        for t in [0.0, 0.25, 0.5, 0.125] {
+            let mut f = [0.0];
+            model.eval([0.0, 0.0, 0.0], t, &mut f).unwrap();
+            assert!(f[0] < -0.1, "centre at t={t}: {}", f[0]);
+            model.eval([radius(t), 0.0, 0.05], t, &mut f).unwrap();
+            assert!(f[0].abs() < 0.05, "surface at t={t}: {}", f[0]);
+            model.eval([0.9, 0.9, 0.0], t, &mut f).unwrap();
+            assert!(f[0] > 0.3, "outside at t={t}: {}", f[0]);
+        }
+    }
+
+    /// The warm-up scales the first steps by (step + 1) / N, reaches the plain schedule at
+    /// step N − 1 and leaves every later step unchanged.
+    #[test]
+    fn warmup_ramps_then_follows_the_cosine() {
+        let plain = options(100, None);
+        let warm = TrainOptions {
+            warmup_steps: 10,
+            ..options(100, None)
+        };
+        let (lr, lr_warm) = (|s| learning_rate(&plain, s), |s| learning_rate(&warm, s));
+        // Within f32 rounding of the f64 schedule.
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-6 * b.abs();
+        assert_eq!(lr(0), plain.lr);
+        assert!(close(lr_warm(0), lr(0) / 10.0), "{}", lr_warm(0));
+        assert!(close(lr_warm(4), lr(4) * 0.5), "{}", lr_warm(4));
+        for s in 1..10 {
+            assert!(lr_warm(s) > lr_warm(s - 1), "ramp rises at step {s}");
+        }
+        for s in 9..=100 {
+            assert_eq!(lr_warm(s), lr(s), "step {s}");
+        }
+        assert!(close(lr(100), plain.lr_final));
+    }
+
+    #[test]
+    fn resumed_run_ends_bit_identical() {
+        let dir = tempfile::tempdir().unwrap();
+        let ckpt = dir.path().join("run.ckpt");
+        let straight = train(&options(30, None), 1, &mut Sphere, |_| {
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        let stopped = train(&options(30, Some(ckpt.clone())), 1, &mut Sphere, |p| {
+            if p.step == 13 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        })
+        .unwrap();
+        assert_eq!(stopped.steps_done, 13);
+        let resumed = train(&options(30, Some(ckpt)), 1, &mut Sphere, |_| {
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        assert_eq!(resumed.steps_done, 30);
+        assert_eq!(resumed.history.first().unwrap().0, 14);
+        assert!(resumed
+            .network
+            .params
+            .iter()
+            .zip(&straight.network.params)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+}

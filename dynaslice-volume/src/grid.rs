@@ -1,0 +1,205 @@
+//! The sampling grid of a label volume: voxels, their world positions and the frame times.
+
+use anyhow::{bail, ensure, Context, Result};
+use dynaslice_data::nifti::LabelVolume;
+
+/// Where a label volume samples the model: `dims` voxels whose centres are at
+/// `world = affine · (i, j, k, 1)`, at each of `times` (one frame per time).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LabelGrid {
+    /// Voxels per axis (x, y, z).
+    pub dims: [usize; 3],
+    /// Voxel index → world, rows x, y, z of `[a, b, c, offset]` (the NIfTI sform rows).
+    pub affine: [[f64; 4]; 3],
+    /// World time of each frame, evenly spaced (NIfTI has a single `pixdim[4]`).
+    pub times: Vec<f64>,
+}
+
+impl LabelGrid {
+    /// The grid of a reference volume: same dimensions, affine and frames, frame f at time
+    /// f · frame interval, the times the NIfTI reader gives a volume's frames when it trains
+    /// on it ([`dynaslice_data::reslice`]), so a model trained on `reference` is queried at its
+    /// own frames.
+    pub fn like(reference: &LabelVolume) -> LabelGrid {
+        LabelGrid {
+            dims: reference.dims,
+            affine: reference.affine,
+            times: (0..reference.frames)
+                .map(|f| f as f64 * reference.frame_interval)
+                .collect(),
+        }
+    }
+
+    /// An axis-aligned grid over the box `lo..hi` with voxel size `spacing`: ⌈(hi − lo)/s⌉
+    /// voxels per axis, centred at lo + (i + ½)·s (so the box [−1, 1]³ at spacing 2/64 is
+    /// exactly the synthetic benchmark's ground-truth grid).
+    pub fn from_bounds(
+        lo: [f64; 3],
+        hi: [f64; 3],
+        spacing: [f64; 3],
+        times: Vec<f64>,
+    ) -> Result<LabelGrid> {
+        let mut dims = [0; 3];
+        for a in 0..3 {
+            let (extent, s) = (hi[a] - lo[a], spacing[a]);
+            ensure!(
+                extent.is_finite() && extent > 0.0,
+                "bounds: axis {a} runs from {} to {}, an empty range",
+                lo[a],
+                hi[a]
+            );
+            ensure!(
+                s.is_finite() && s > 0.0,
+                "spacing {s} on axis {a} is not a positive number"
+            );
+            // The 1e-9 keeps a box that is a whole number of voxels (up to rounding) from
+            // gaining a sliver voxel.
+            let n = (extent / s - 1e-9).ceil().max(1.0);
+            ensure!(
+                n <= i16::MAX as f64,
+                "{n} voxels on axis {a}: NIfTI-1 allows at most {} per axis",
+                i16::MAX
+            );
+            dims[a] = n as usize;
+        }
+        let mut affine = [[0.0; 4]; 3];
+        for a in 0..3 {
+            affine[a][a] = spacing[a];
+            affine[a][3] = lo[a] + 0.5 * spacing[a];
+        }
+        let grid = LabelGrid {
+            dims,
+            affine,
+            times,
+        };
+        grid.frame_interval()?;
+        Ok(grid)
+    }
+
+    /// Voxels in one frame.
+    pub fn voxels_per_frame(&self) -> usize {
+        self.dims.iter().product()
+    }
+
+    /// World position of the centre of voxel (i, j, k).
+    #[inline]
+    pub fn world(&self, i: usize, j: usize, k: usize) -> [f64; 3] {
+        let q = [i as f64, j as f64, k as f64];
+        self.affine
+            .map(|r| r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + r[3])
+    }
+
+    /// World volume of one voxel, |det A|.
+    pub fn voxel_volume(&self) -> f64 {
+        dynaslice_data::nifti::det3(&self.affine).abs()
+    }
+
+    /// The time between frames (1 for a single frame, the NIfTI convention for "unknown").
+    /// An error unless there is at least one time, all finite, increasing and evenly spaced.
+    pub fn frame_interval(&self) -> Result<f64> {
+        let t = &self.times;
+        ensure!(!t.is_empty(), "no frame times");
+        ensure!(
+            t.iter().all(|v| v.is_finite()),
+            "frame times {t:?} are not all finite"
+        );
+        if t.len() < 2 {
+            return Ok(1.0);
+        }
+        let (t0, t1) = (t[0], t[1]);
+        let dt = t1 - t0;
+        ensure!(dt > 0.0, "frame times must increase: {t0} then {t1}");
+        for (f, w) in t.windows(2).enumerate() {
+            // NIfTI stores one interval; unevenly spaced times would be written as wrong times.
+            if ((w[1] - w[0]) - dt).abs() > 1e-6 * dt.max(t0.abs()) {
+                bail!(
+                    "frame times are not evenly spaced: {} to {} after {dt} between frames 0 and 1 \
+                     (frame {f})",
+                    w[0],
+                    w[1]
+                );
+            }
+        }
+        Ok(dt)
+    }
+}
+
+/// N times evenly from A to B inclusive, from "A:B:N" (N = 1 needs A = B).
+pub fn parse_times(spec: &str) -> Result<Vec<f64>> {
+    let parts: Vec<&str> = spec.split(':').collect();
+    let [a, b, n] = parts[..] else {
+        bail!("--times {spec:?}: expected A:B:N, e.g. 0:1:37");
+    };
+    let number = |v: &str, what: &str| {
+        v.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .with_context(|| format!("--times {spec:?}: {what} {v:?} is not a number"))
+    };
+    let (a, b) = (number(a, "start")?, number(b, "end")?);
+    let n: usize = n
+        .trim()
+        .parse()
+        .ok()
+        .filter(|&n| n >= 1)
+        .with_context(|| format!("--times {spec:?}: count {n:?} is not a whole number ≥ 1"))?;
+    if n == 1 {
+        ensure!(a == b, "--times {spec:?}: one time needs A = B");
+        return Ok(vec![a]);
+    }
+    ensure!(b > a, "--times {spec:?}: the end must come after the start");
+    Ok((0..n)
+        .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_grid_matches_the_benchmark_truth_grid() {
+        let g = LabelGrid::from_bounds([-1.0; 3], [1.0; 3], [2.0 / 64.0; 3], vec![0.0]).unwrap();
+        let truth = dynaslice_data::synth::label_volume(
+            dynaslice_data::synth::Shape::Blob,
+            &dynaslice_data::synth::BenchmarkOptions {
+                timesteps: 2,
+                volume_resolution: 64,
+                ..Default::default()
+            },
+        );
+        assert_eq!(g.dims, truth.dims);
+        assert_eq!(g.affine, truth.affine);
+        assert_eq!(LabelGrid::like(&truth).times, vec![0.0, 1.0]);
+        assert!((g.voxel_volume() * 64f64.powi(3) - 8.0).abs() < 1e-9);
+        assert_eq!(
+            g.world(63, 0, 0),
+            [1.0 - 1.0 / 64.0, -1.0 + 1.0 / 64.0, -1.0 + 1.0 / 64.0]
+        );
+    }
+
+    #[test]
+    fn times_and_bad_grids() {
+        assert_eq!(parse_times("0:1:3").unwrap(), vec![0.0, 0.5, 1.0]);
+        assert_eq!(parse_times("2:2:1").unwrap(), vec![2.0]);
+        for bad in ["0:1", "0:x:3", "0:1:0", "1:0:3", "0:1:1"] {
+            assert!(parse_times(bad).is_err(), "{bad}");
+        }
+        let g = |lo: f64, s: f64, times: Vec<f64>| {
+            LabelGrid::from_bounds([lo, 0.0, 0.0], [1.0; 3], [s; 3], times)
+        };
+        assert_eq!(g(0.0, 0.3, vec![0.0]).unwrap().dims, [4, 4, 4]);
+        assert!(g(1.0, 0.1, vec![0.0])
+            .unwrap_err()
+            .to_string()
+            .contains("empty range"));
+        assert!(g(0.0, 0.0, vec![0.0])
+            .unwrap_err()
+            .to_string()
+            .contains("spacing"));
+        let e = g(0.0, 0.1, vec![0.0, 1.0, 3.0]).unwrap_err().to_string();
+        assert!(e.contains("not evenly spaced"), "{e}");
+        assert!(g(0.0, 0.1, vec![]).is_err());
+    }
+}
