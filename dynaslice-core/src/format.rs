@@ -117,6 +117,19 @@ impl ClassRecord {
     }
 }
 
+/// The largest file a valid model can be: every dimension at its limit (about 8.5 MB). Readers
+/// stop past it, so opening a huge file that is not a model fails fast instead of reading all of
+/// it.
+pub fn max_file_size() -> u64 {
+    let widths = [MAX_WIDTH as u32; MAX_SINE_LAYERS];
+    let params = Layout::new(&widths, MAX_CLASSES as u32)
+        .map(|l| l.param_count())
+        .unwrap_or(0) as u64;
+    let before_weights =
+        (HEADER_SIZE + CLASS_RECORD_SIZE * MAX_CLASSES + MAX_METADATA + WEIGHT_ALIGN - 1) as u64; // at most WEIGHT_ALIGN - 1 bytes of padding before the weights
+    before_weights + 4 * params + 4
+}
+
 fn align_up(v: u64, a: u64) -> Option<u64> {
     v.checked_add(a - 1).map(|x| x / a * a)
 }

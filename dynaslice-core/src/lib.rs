@@ -14,7 +14,7 @@
 //!   ([`Layout::macs_per_point`]), which are bounded by [`format::MAX_WIDTH`] and friends.
 //!
 //! With the `std` feature, batch evaluation picks AVX2 or AVX-512 kernels at run time, and models
-//! can be written ([`format::ModelWriter`]).
+//! can be written ([`format::ModelWriter`]) and held in aligned owned storage ([`ModelBytes`]).
 //!
 //! ```
 //! # #[cfg(feature = "std")] {
@@ -43,6 +43,8 @@ mod kernel;
 mod label;
 mod layout;
 mod model;
+#[cfg(feature = "std")]
+mod model_bytes;
 pub mod sine;
 
 pub use crc32::crc32;
@@ -52,6 +54,8 @@ pub use eval::Scratch;
 pub use label::{argmin_label, UNDEFINED_LABEL};
 pub use layout::Layout;
 pub use model::{ClassInfo, Model, Weights};
+#[cfg(feature = "std")]
+pub use model_bytes::ModelBytes;
 
 /// Name of the batch kernels this CPU gets ("avx512", "avx2" or "portable").
 pub fn kernel_name() -> &'static str {

@@ -18,7 +18,7 @@
 #![warn(missing_docs)]
 
 use core::ffi::{c_char, c_int, CStr};
-use dynaslice_core::{format, Error, Layout, Model, Scratch};
+use dynaslice_core::{format, Error, Model, Scratch};
 use std::cell::RefCell;
 use std::ffi::CString;
 use std::io::Read;
@@ -285,21 +285,6 @@ unsafe fn point(xyz: *const f32) -> Result<[f32; 3], Failure> {
     Ok([p[0], p[1], p[2]])
 }
 
-/// The largest file a valid model can be: every dimension at its limit. Reading stops past it, so
-/// opening a huge file that is not a model fails fast instead of reading all of it.
-fn max_model_size() -> u64 {
-    let widths = [format::MAX_WIDTH as u32; format::MAX_SINE_LAYERS];
-    let params = Layout::new(&widths, format::MAX_CLASSES as u32)
-        .map(|l| l.param_count())
-        .unwrap_or(0) as u64;
-    let before_weights = (format::HEADER_SIZE
-        + format::CLASS_RECORD_SIZE * format::MAX_CLASSES
-        + format::MAX_METADATA
-        + format::WEIGHT_ALIGN
-        - 1) as u64; // at most WEIGHT_ALIGN - 1 bytes of padding before the weights
-    before_weights + 4 * params + 4
-}
-
 /// Writes `text` snprintf-style: at most `len - 1` bytes, cut at a UTF-8 character boundary, then
 /// a NUL. Returns the full length so a caller can retry with a bigger buffer.
 ///
@@ -371,7 +356,7 @@ pub unsafe extern "C" fn ds_model_open(path: *const c_char, out: *mut *mut DsMod
                 format!("cannot read {}: {e}", path.to_string_lossy()),
             )
         };
-        let limit = max_model_size();
+        let limit = format::max_file_size();
         let mut bytes = Vec::new();
         std::fs::File::open(path)
             .map_err(io)?
@@ -409,7 +394,7 @@ pub unsafe extern "C" fn ds_model_from_bytes(
     let copy = || {
         // SAFETY: per this function's contract.
         let bytes = unsafe { input(bytes, len, "bytes") }?;
-        if bytes.len() as u64 > max_model_size() {
+        if bytes.len() as u64 > format::max_file_size() {
             return Err(Failure::new(
                 DS_E_BAD_FORMAT,
                 format!("{len} bytes is larger than any model"),
@@ -931,8 +916,8 @@ mod tests {
         let mut w = format::ModelWriter::random_siren(&widths, format::MAX_CLASSES as u32, 1);
         w.metadata = "x".repeat(format::MAX_METADATA);
         let bytes = w.to_bytes();
-        assert!(bytes.len() as u64 <= max_model_size());
-        assert!(max_model_size() - (bytes.len() as u64) < format::WEIGHT_ALIGN as u64);
+        assert!(bytes.len() as u64 <= format::max_file_size());
+        assert!(format::max_file_size() - (bytes.len() as u64) < format::WEIGHT_ALIGN as u64);
         assert!(DsModel::from_bytes(&bytes).is_ok());
     }
 

@@ -1,0 +1,120 @@
+//! An owned model file, aligned so that [`Model::from_bytes`] reads its weights in place.
+//!
+//! A `Vec<u8>` is only 1-byte aligned, so weights in it may be rejected as
+//! [`Error::Misaligned`]. [`ModelBytes`] stores the file in 8-byte words, which satisfies every
+//! weight type (f32 needs 4, f16 needs 2), and is the one way the `std` side of DynaSlice holds
+//! a model file in memory.
+
+use crate::{format, Error, Model};
+use std::boxed::Box;
+use std::path::Path;
+use std::vec;
+
+/// Model file bytes in 8-byte aligned owned storage.
+///
+/// Invariant: `words` holds at least `len` bytes; bytes past `len` are zero.
+#[derive(Clone, PartialEq, Eq)]
+pub struct ModelBytes {
+    words: Box<[u64]>,
+    len: usize,
+}
+
+impl ModelBytes {
+    /// Copies `bytes` (any alignment) into aligned storage. Nothing is validated: see
+    /// [`ModelBytes::model`].
+    pub fn copy_from(bytes: &[u8]) -> ModelBytes {
+        let mut words = vec![0u64; bytes.len().div_ceil(8)].into_boxed_slice();
+        bytemuck::cast_slice_mut::<u64, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
+        ModelBytes {
+            words,
+            len: bytes.len(),
+        }
+    }
+
+    /// Reads the file at `path`, refusing anything that is not a regular file or is larger than
+    /// any model can be ([`format::max_file_size`]) before reading it. Nothing is validated: see
+    /// [`ModelBytes::model`].
+    pub fn read(path: &Path) -> std::io::Result<ModelBytes> {
+        use std::io::{Error as IoError, ErrorKind, Read};
+        let file = std::fs::File::open(path)?;
+        let meta = file.metadata()?;
+        if !meta.is_file() {
+            return Err(IoError::new(ErrorKind::InvalidInput, "not a regular file"));
+        }
+        let max = format::max_file_size();
+        if meta.len() > max {
+            return Err(IoError::new(
+                ErrorKind::InvalidData,
+                std::format!(
+                    "{} bytes, larger than any model file ({max} at most)",
+                    meta.len()
+                ),
+            ));
+        }
+        let mut bytes = vec::Vec::with_capacity(meta.len() as usize);
+        // `take` bounds the read even if the file grows after `metadata`.
+        file.take(max + 1).read_to_end(&mut bytes)?;
+        if bytes.len() as u64 > max {
+            return Err(IoError::new(
+                ErrorKind::InvalidData,
+                "the file grew past the largest model file while it was read",
+            ));
+        }
+        Ok(ModelBytes::copy_from(&bytes))
+    }
+
+    /// The bytes, 8-byte aligned.
+    pub fn as_bytes(&self) -> &[u8] {
+        &bytemuck::cast_slice(&self.words)[..self.len]
+    }
+
+    /// The validated model these bytes hold ([`Model::from_bytes`]).
+    pub fn model(&self) -> Result<Model<'_>, Error> {
+        Model::from_bytes(self.as_bytes())
+    }
+}
+
+impl core::ops::Deref for ModelBytes {
+    type Target = [u8];
+    fn deref(&self) -> &[u8] {
+        self.as_bytes()
+    }
+}
+
+impl core::fmt::Debug for ModelBytes {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "ModelBytes({} bytes)", self.len)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::format::ModelWriter;
+
+    #[test]
+    fn copies_are_aligned_and_exact() {
+        let file = ModelWriter::random_siren(&[16, 16], 2, 3).to_bytes();
+        let mut shifted = vec![0u8; file.len() + 1];
+        shifted[1..].copy_from_slice(&file);
+        let bytes = ModelBytes::copy_from(&shifted[1..]);
+        assert_eq!(bytes.as_ptr() as usize % 8, 0);
+        assert_eq!(&bytes[..], &file[..]);
+        assert_eq!(bytes.model().unwrap().num_classes(), 2);
+    }
+
+    #[test]
+    fn read_refuses_directories_and_reads_files() {
+        let dir = std::env::temp_dir().join(std::format!("dsm-bytes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        assert_eq!(
+            ModelBytes::read(&dir).unwrap_err().kind(),
+            std::io::ErrorKind::InvalidInput
+        );
+        let path = dir.join("m.dsm");
+        let file = ModelWriter::random_siren(&[8], 1, 1).to_bytes();
+        std::fs::write(&path, &file).unwrap();
+        assert_eq!(&ModelBytes::read(&path).unwrap()[..], &file[..]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
