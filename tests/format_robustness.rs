@@ -21,10 +21,9 @@ use dynaslice_core::format::{
     Header, ModelWriter, WeightType, CLASS_RECORD_SIZE, HEADER_SIZE, MAGIC, MAX_CLASSES,
     MAX_METADATA, MAX_NAME_LEN, MAX_SINE_LAYERS, MAX_WIDTH, VERSION, WEIGHT_ALIGN,
 };
-use dynaslice_core::{crc32, Domain, Error, Model, Scratch, UNDEFINED_LABEL};
+use dynaslice_core::{crc32, Domain, Error, Model, ModelBytes, Scratch, UNDEFINED_LABEL};
 use proptest::prelude::*;
 use std::mem::offset_of;
-use std::ops::Deref;
 
 // ---------------------------------------------------------------------------------------------
 // Byte offsets of the header fields, as documented in docs/model-format.md. They are written out
@@ -55,41 +54,13 @@ const OFF_RESERVED: usize = 152;
 // ---------------------------------------------------------------------------------------------
 // Helpers.
 
-/// A copy of some bytes at a 64-byte aligned address.
-///
-/// `from_bytes` reads weights in place and so rightly rejects a buffer whose weights are not
-/// aligned for f32/f16 (`Error::Misaligned`). A `Vec<u8>` is only guaranteed 1-byte alignment,
-/// so every test copies its bytes here first: otherwise a test could pass or fail depending on
-/// what the allocator returned. Misalignment itself is tested explicitly.
-struct Aligned {
-    buf: Vec<u8>,
-    start: usize,
-    len: usize,
-}
-
-impl Aligned {
-    fn new(bytes: &[u8]) -> Aligned {
-        Aligned::at_offset(bytes, 0)
-    }
-
-    /// The bytes placed `misalign` bytes past a 64-byte boundary.
-    fn at_offset(bytes: &[u8], misalign: usize) -> Aligned {
-        let mut buf = vec![0u8; bytes.len() + 64 + misalign];
-        let start = buf.as_ptr().align_offset(64) + misalign;
-        buf[start..start + bytes.len()].copy_from_slice(bytes);
-        Aligned {
-            buf,
-            start,
-            len: bytes.len(),
-        }
-    }
-}
-
-impl Deref for Aligned {
-    type Target = [u8];
-    fn deref(&self) -> &[u8] {
-        &self.buf[self.start..self.start + self.len]
-    }
+/// An aligned copy of `misalign` zero bytes followed by `bytes`, so that `&copy[misalign..]`
+/// holds `bytes` exactly `misalign` bytes past an 8-byte boundary. Every other test holds its
+/// bytes in a [`ModelBytes`]: `from_bytes` reads weights in place and rightly rejects weights
+/// not aligned for f32/f16 (`Error::Misaligned`), and a `Vec<u8>` is only guaranteed 1-byte
+/// alignment, so a test could otherwise pass or fail depending on what the allocator returned.
+fn shifted(bytes: &[u8], misalign: usize) -> ModelBytes {
+    ModelBytes::copy_from(&[&vec![0; misalign], bytes].concat())
 }
 
 /// Rewrites the CRC-32 trailer (the last 4 bytes) to match the bytes before it, so that a
@@ -120,8 +91,8 @@ fn get_u64(bytes: &[u8], at: usize) -> u64 {
 /// Loads `bytes` (from an aligned copy) and, if accepted, checks the canonical round trip and
 /// runs every query kind. Returns what `from_bytes` returned, so callers can check the error.
 fn load(bytes: &[u8]) -> Result<(), Error> {
-    let copy = Aligned::new(bytes);
-    let model = Model::from_bytes(&copy)?;
+    let copy = ModelBytes::copy_from(bytes);
+    let model = copy.model()?;
     let rewritten = ModelWriter::from_model(&model).try_to_bytes();
     assert!(
         rewritten.as_deref() == Ok(bytes),
@@ -287,7 +258,8 @@ fn header_offsets_are_the_documented_ones() {
         };
         assert_eq!(
             value,
-            Model::from_bytes(&Aligned::new(&bytes))
+            ModelBytes::copy_from(&bytes)
+                .model()
                 .unwrap()
                 .weights()
                 .get(0)
@@ -331,8 +303,8 @@ fn limits_are_inclusive() {
     w.classes[0].0 = "n".repeat(MAX_NAME_LEN);
     w.weight_type = WeightType::F16;
     let bytes = w.to_bytes();
-    let copy = Aligned::new(&bytes);
-    let model = Model::from_bytes(&copy).unwrap();
+    let copy = ModelBytes::copy_from(&bytes);
+    let model = copy.model().unwrap();
     assert_eq!(ModelWriter::from_model(&model).to_bytes(), bytes);
     let mut f = [0.0; MAX_CLASSES];
     model.eval([0.1, 0.2, 0.3], 0.4, &mut f).unwrap();
@@ -406,8 +378,8 @@ proptest! {
     fn valid_files_round_trip_exactly(w in arb_writer()) {
         let bytes = w.to_bytes();
         load(&bytes).unwrap();
-        let copy = Aligned::new(&bytes);
-        let back = ModelWriter::from_model(&Model::from_bytes(&copy).unwrap());
+        let copy = ModelBytes::copy_from(&bytes);
+        let back = ModelWriter::from_model(&copy.model().unwrap());
         prop_assert_eq!(&back.widths, &w.widths);
         prop_assert_eq!(&back.classes, &w.classes);
         prop_assert_eq!(&back.metadata, &w.metadata);
@@ -515,15 +487,21 @@ fn misaligned_buffers_are_refused() {
     let f32_file = fixture(WeightType::F32).to_bytes();
     let f16_file = fixture(WeightType::F16).to_bytes();
     for misalign in [1, 2, 3] {
-        let copy = Aligned::at_offset(&f32_file, misalign);
-        assert_eq!(Model::from_bytes(&copy).err(), Some(Error::Misaligned));
+        let copy = shifted(&f32_file, misalign);
+        assert_eq!(
+            Model::from_bytes(&copy[misalign..]).err(),
+            Some(Error::Misaligned)
+        );
     }
     for misalign in [1, 3] {
-        let copy = Aligned::at_offset(&f16_file, misalign);
-        assert_eq!(Model::from_bytes(&copy).err(), Some(Error::Misaligned));
+        let copy = shifted(&f16_file, misalign);
+        assert_eq!(
+            Model::from_bytes(&copy[misalign..]).err(),
+            Some(Error::Misaligned)
+        );
     }
     // f16 weights need only 2-byte alignment.
-    assert!(Model::from_bytes(&Aligned::at_offset(&f16_file, 2)).is_ok());
+    assert!(Model::from_bytes(&shifted(&f16_file, 2)[2..]).is_ok());
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,9 +1,9 @@
 //! The core's exact derivatives (forward-mode tangents) against central differences of an
 //! independent f64 reference evaluation, on random networks and points.
 
-use dynaslice_core::Model;
+use dynaslice_core::ModelBytes;
+use dynaslice_test_support::reference::Reference;
 use dynaslice_tests::strategies::{model, to_world, unit_point};
-use dynaslice_tests::Reference;
 use proptest::prelude::*;
 
 proptest! {
@@ -19,8 +19,8 @@ proptest! {
     /// wrong scale factor, the unclamped ω_t) is off by O(1) of that scale.
     #[test]
     fn gradients_match_central_differences(w in model(), p in unit_point()) {
-        let bytes = w.to_bytes();
-        let model = Model::from_bytes(&bytes).unwrap();
+        let bytes = ModelBytes::copy_from(&w.to_bytes());
+        let model = bytes.model().unwrap();
         let reference = Reference::new(&w);
         let k = model.num_classes();
         let (x, t) = to_world(&w.domain, p);
@@ -47,8 +47,8 @@ proptest! {
     /// The gradient-only and value-only entry points agree with the full jacobian.
     #[test]
     fn entry_points_agree(w in model(), p in unit_point()) {
-        let bytes = w.to_bytes();
-        let model = Model::from_bytes(&bytes).unwrap();
+        let bytes = ModelBytes::copy_from(&w.to_bytes());
+        let model = bytes.model().unwrap();
         let k = model.num_classes();
         let (x, t) = to_world(&w.domain, p);
         let (mut f1, mut f2, mut f3) = (vec![0.0; k], vec![0.0; k], vec![0.0; k]);

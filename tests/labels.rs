@@ -1,6 +1,6 @@
 //! Eq. 11 labels: the argmin over (0, f¹, …, f^K), from every entry point.
 
-use dynaslice_core::{argmin_label, Model, Scratch};
+use dynaslice_core::{argmin_label, ModelBytes, Scratch};
 use dynaslice_tests::strategies::{model, to_world, unit_point};
 use proptest::prelude::*;
 
@@ -21,8 +21,8 @@ proptest! {
         for (c, b) in w.params[bias..bias + fan_out].iter_mut().enumerate() {
             *b += shift * (c as f32 - 1.0);
         }
-        let bytes = w.to_bytes();
-        let model = Model::from_bytes(&bytes).unwrap();
+        let bytes = ModelBytes::copy_from(&w.to_bytes());
+        let model = bytes.model().unwrap();
         let k = model.num_classes();
         let (xyz, t): (Vec<_>, Vec<_>) = points.iter().map(|&p| to_world(&w.domain, p)).unzip();
         let mut batch = vec![0u32; xyz.len()];

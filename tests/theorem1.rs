@@ -6,7 +6,7 @@
 //! content of the whole network.
 
 use dynaslice_core::format::ModelWriter;
-use dynaslice_core::{Domain, Model};
+use dynaslice_core::{Domain, ModelBytes};
 use dynaslice_tests::strategies::{model, to_world, unit_point};
 use proptest::prelude::*;
 
@@ -17,8 +17,8 @@ fn omega_t_range(w: &ModelWriter) -> std::ops::Range<usize> {
 }
 
 fn eval(w: &ModelWriter, x: [f32; 3], t: f32) -> Vec<f32> {
-    let bytes = w.to_bytes();
-    let model = Model::from_bytes(&bytes).unwrap();
+    let bytes = ModelBytes::copy_from(&w.to_bytes());
+    let model = bytes.model().unwrap();
     let mut f = vec![0.0; model.num_classes()];
     model.eval(x, t, &mut f).unwrap();
     f
@@ -59,8 +59,8 @@ proptest! {
     fn zero_temporal_frequencies_give_zero_time_derivative(mut w in model(), p in unit_point()) {
         let range = omega_t_range(&w);
         w.params[range].fill(0.0);
-        let bytes = w.to_bytes();
-        let model = Model::from_bytes(&bytes).unwrap();
+        let bytes = ModelBytes::copy_from(&w.to_bytes());
+        let model = bytes.model().unwrap();
         let k = model.num_classes();
         let (x, t) = to_world(&w.domain, p);
         let (mut f, mut g, mut d) = (vec![0.0; k], vec![[0.0; 3]; k], vec![1.0; k]);
@@ -87,8 +87,8 @@ proptest! {
             bound *= spectral_norm_bound(&wt, fan_in, fan_out);
         }
         bound *= (w.domain.output_scale / w.domain.time_span) as f64;
-        let bytes = w.to_bytes();
-        let model = Model::from_bytes(&bytes).unwrap();
+        let bytes = ModelBytes::copy_from(&w.to_bytes());
+        let model = bytes.model().unwrap();
         let k = model.num_classes();
         let (x, t) = to_world(&w.domain, p);
         let (mut f, mut g, mut d) = (vec![0.0; k], vec![[0.0; 3]; k], vec![0.0; k]);

@@ -2,11 +2,12 @@
 //! mesh), on held-out slices, and its class volumes over time. Definitions: docs/metrics.md.
 
 use super::input::{self, InputArgs};
+use super::model::ModelFile;
 use anyhow::{bail, Context, Result};
-use dynaslice_core::Model;
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::native;
 use dynaslice_data::synth::{BenchmarkOptions, Shape};
+use dynaslice_data::TimeSeries;
 use dynaslice_figures::plot::volume_chart;
 use dynaslice_mesh::{self as mesh, Surfaces};
 use dynaslice_metrics::benchmark::{Resolution, Scores, Truth};
@@ -14,9 +15,7 @@ use dynaslice_metrics::chamfer::{self, DEFAULT_SAMPLES};
 use dynaslice_metrics::heldout::{self, Split, DEFAULT_PIXELS};
 use dynaslice_metrics::volume::volume_curve;
 use dynaslice_metrics::Frames;
-use dynaslice_train::model_file::read_model_bytes;
-use dynaslice_volume::grid::parse_times;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `dynaslice eval`.
 #[derive(clap::Args, Debug)]
@@ -147,7 +146,7 @@ struct VolumeArgs {
     model: PathBuf,
     /// N times evenly from A to B inclusive (default: the model's time range in 20 steps).
     #[arg(long, value_name = "A:B:N", allow_hyphen_values = true)]
-    times: Option<String>,
+    times: Option<TimeSeries>,
     /// Lattice cells along the longest axis of the model's domain.
     #[arg(long, default_value_t = 128)]
     resolution: u32,
@@ -166,24 +165,13 @@ pub fn run(a: Args) -> Result<()> {
     }
 }
 
-/// Reads a model into aligned bytes; `Model::from_bytes` borrows them.
-fn load(path: &Path) -> Result<dynaslice_train::model_file::AlignedBytes> {
-    let bytes = read_model_bytes(path)?;
-    Model::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    Ok(bytes)
-}
-
-fn model(bytes: &[u8]) -> Model<'_> {
-    Model::from_bytes(bytes).expect("validated by load")
-}
-
 fn fmt(v: Option<f64>, digits: usize) -> String {
     v.map_or("n/a".into(), |v| format!("{v:.digits$}"))
 }
 
 fn synthetic(a: SyntheticArgs) -> Result<()> {
-    let bytes = load(&a.model)?;
-    let model = model(&bytes);
+    let file = ModelFile::open(&a.model)?;
+    let model = file.model();
     let shape = a.shape;
     let names = shape.class_names();
     if model.num_classes() != names.len() {
@@ -246,8 +234,8 @@ fn synthetic(a: SyntheticArgs) -> Result<()> {
 }
 
 fn reference(a: ReferenceArgs) -> Result<()> {
-    let bytes = load(&a.model)?;
-    let model = model(&bytes);
+    let file = ModelFile::open(&a.model)?;
+    let model = file.model();
     let k = model.num_classes();
     if !(1..=k).contains(&a.class) {
         bail!(
@@ -259,7 +247,7 @@ fn reference(a: ReferenceArgs) -> Result<()> {
     if a.samples == 0 {
         bail!("--samples 0: the Chamfer distance needs at least 1 sample per surface");
     }
-    let reference = chamfer::read_stl(&a.reference)?;
+    let reference = dynaslice_mesh::io::read_stl(&a.reference)?;
     let t = a.time.unwrap_or(f64::from(model.domain().time_range().0));
     let options = mesh::Options {
         resolution: a.mesh_resolution,
@@ -295,8 +283,8 @@ fn reference(a: ReferenceArgs) -> Result<()> {
 }
 
 fn held_out(a: HeldoutArgs) -> Result<()> {
-    let bytes = load(&a.model)?;
-    let model = model(&bytes);
+    let file = ModelFile::open(&a.model)?;
+    let model = file.model();
     let seq = input::read(&a.input)?;
     let split = a.holdout.split();
     let scores = heldout::held_out(&model, &seq, &split, a.pixels)
@@ -345,13 +333,16 @@ fn split(a: SplitArgs) -> Result<()> {
 }
 
 fn volume(a: VolumeArgs) -> Result<()> {
-    let bytes = load(&a.model)?;
-    let model = model(&bytes);
-    let times = match &a.times {
-        Some(spec) => parse_times(spec)?,
+    let file = ModelFile::open(&a.model)?;
+    let model = file.model();
+    let times = match a.times {
+        Some(series) => series.times(),
         None => {
             let (t0, t1) = model.domain().time_range();
-            parse_times(&format!("{t0}:{t1}:20"))?
+            format!("{t0}:{t1}:20")
+                .parse::<TimeSeries>()
+                .map_err(anyhow::Error::msg)?
+                .times()
         }
     };
     let curve = volume_curve(&model, &times, a.resolution)?;

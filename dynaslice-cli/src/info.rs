@@ -1,8 +1,8 @@
 //! `dynaslice info MODEL`.
 
+use super::model::ModelFile;
 use anyhow::Result;
-use dynaslice_core::{Model, Weights};
-use dynaslice_train::model_file::read_model_bytes;
+use dynaslice_core::Weights;
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice info`.
@@ -13,9 +13,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let bytes = read_model_bytes(&args.model)?;
-    let model =
-        Model::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
+    let file = ModelFile::open(&args.model)?;
+    let model = file.model();
     let layout = model.layout();
     let d = model.domain();
     let (lo, hi) = d.bounds();
@@ -27,7 +26,7 @@ pub fn run(args: Args) -> Result<()> {
     println!("model        {}", args.model.display());
     println!(
         "size         {} bytes ({} weights, {dtype})",
-        bytes.len(),
+        file.len(),
         layout.param_count()
     );
     println!("sine layers  {:?}", layout.widths());

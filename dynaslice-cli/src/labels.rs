@@ -1,11 +1,12 @@
 //! `dynaslice labels MODEL.dsm --like REF.nii.gz -o OUT.nii.gz` (or `--bounds`, `--spacing`,
 //! `--times`): the model's Eq. 11 label volume, written frame by frame (docs/metrics.md).
 
+use super::model::ModelFile;
 use anyhow::{bail, ensure, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::nifti::read_volume;
-use dynaslice_train::model_file::read_model_bytes;
-use dynaslice_volume::{self as labels, grid::parse_times, LabelGrid};
+use dynaslice_data::TimeSeries;
+use dynaslice_volume::VoxelGrid;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -34,7 +35,7 @@ pub struct Args {
     /// Frames at N times evenly from A to B inclusive (default: the model's time range in 10
     /// frames).
     #[arg(long, value_name = "A:B:N", allow_hyphen_values = true)]
-    times: Option<String>,
+    times: Option<TimeSeries>,
     /// Output .nii or .nii.gz.
     #[arg(short, long, value_name = "OUT.nii.gz")]
     output: PathBuf,
@@ -50,12 +51,11 @@ pub fn run(a: Args) -> Result<()> {
         "{}: the output must be a .nii or .nii.gz file",
         a.output.display()
     );
-    let bytes = read_model_bytes(&a.model)?;
-    let model =
-        Model::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", a.model.display()))?;
+    let file = ModelFile::open(&a.model)?;
+    let model = file.model();
     let grid = match &a.like {
         // The reference's voxels are read and dropped at once: only its geometry is used.
-        Some(reference) => LabelGrid::like(&read_volume(reference)?),
+        Some(reference) => VoxelGrid::like(&read_volume(reference)?),
         None => bounds_grid(&a, &model)?,
     };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -78,7 +78,7 @@ pub fn run(a: Args) -> Result<()> {
     });
     let mut last_log = Instant::now();
     let counts = pool.install(|| {
-        labels::write_volume(&model, &grid, &a.output, |f| match &bar {
+        dynaslice_volume::write_volume(&model, &grid, &a.output, |f| match &bar {
             Some(bar) => bar.set_position(f as u64 + 1),
             None if last_log.elapsed() >= Duration::from_secs(10) => {
                 eprintln!(
@@ -120,7 +120,7 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 /// The grid of `--bounds`, `--spacing` and `--times`, each defaulting to the model's.
-fn bounds_grid(a: &Args, model: &Model) -> Result<LabelGrid> {
+fn bounds_grid(a: &Args, model: &Model) -> Result<VoxelGrid> {
     let (lo, hi) = match &a.bounds {
         Some(b) => match b[..] {
             [x0, y0, z0, x1, y1, z1] => ([x0, y0, z0], [x1, y1, z1]),
@@ -140,12 +140,15 @@ fn bounds_grid(a: &Args, model: &Model) -> Result<LabelGrid> {
             [longest / 128.0; 3]
         }
     };
-    let times = match &a.times {
-        Some(spec) => parse_times(spec)?,
+    let times = match a.times {
+        Some(series) => series.times(),
         None => {
             let (t0, t1) = model.domain().time_range();
-            parse_times(&format!("{t0}:{t1}:10"))?
+            format!("{t0}:{t1}:10")
+                .parse::<TimeSeries>()
+                .map_err(anyhow::Error::msg)?
+                .times()
         }
     };
-    LabelGrid::from_bounds(lo, hi, spacing, times)
+    VoxelGrid::from_bounds(lo, hi, spacing, times)
 }

@@ -9,6 +9,7 @@ mod input;
 mod labels;
 pub mod loss;
 mod mesh;
+mod model;
 mod picture;
 mod query;
 mod synth;

@@ -2,12 +2,13 @@
 //! sets of a model's classes as closed triangle meshes in world coordinates. Method, file names
 //! and attributes: docs/meshing.md.
 
-use anyhow::{bail, ensure, Context, Result};
+use super::model::ModelFile;
+use anyhow::{bail, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::atomic::write_atomically;
+use dynaslice_data::TimeSeries;
 use dynaslice_mesh::io::{self, pvd, Format};
 use dynaslice_mesh::{self as mesh, Extraction, Options, Sampling, Surfaces, DEFAULT_SAFETY};
-use dynaslice_train::model_file::read_model_bytes;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -28,7 +29,7 @@ pub struct Args {
         conflicts_with = "time",
         allow_hyphen_values = true
     )]
-    times: Option<String>,
+    times: Option<TimeSeries>,
     /// Class to mesh, by number (1..K) or name; repeat for several. Default: every class.
     #[arg(long = "class", value_name = "K")]
     classes: Vec<String>,
@@ -62,38 +63,6 @@ pub struct Args {
 
 fn parse_format(s: &str) -> Result<Format, String> {
     Format::from_name(s).ok_or_else(|| format!("unknown format {s:?}; use ply, obj, stl or vtp"))
-}
-
-/// N times evenly from A to B inclusive, from "A:B:N".
-fn parse_times(s: &str) -> Result<Vec<f32>> {
-    let parts: Vec<&str> = s.split(':').collect();
-    let [a, b, n] = parts[..] else {
-        bail!("--times {s:?}: expected A:B:N, e.g. 0:1:20");
-    };
-    let number = |v: &str, what| {
-        v.trim()
-            .parse::<f32>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .with_context(|| format!("--times {s:?}: {what} {v:?} is not a number"))
-    };
-    let (a, b) = (number(a, "start")?, number(b, "end")?);
-    let n: usize = n
-        .trim()
-        .parse()
-        .ok()
-        .filter(|&n| n >= 1)
-        .with_context(|| format!("--times {s:?}: count {n:?} is not a whole number ≥ 1"))?;
-    if n == 1 {
-        ensure!(
-            a == b,
-            "--times {s:?}: one time needs A = B (or use --time)"
-        );
-        return Ok(vec![a]);
-    }
-    Ok((0..n)
-        .map(|i| a + (b - a) * i as f32 / (n - 1) as f32)
-        .collect())
 }
 
 /// The 0-based channels of the `--class` values (numbers or names), all classes by default.
@@ -159,14 +128,14 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 fn mesh_all(args: &Args) -> Result<()> {
-    let bytes = read_model_bytes(&args.model)?;
-    let model =
-        Model::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
+    let file = ModelFile::open(&args.model)?;
+    let model = file.model();
     let classes = resolve_classes(&model, &args.model, &args.classes)?;
     let names: Vec<String> = model.classes().map(|c| c.name.to_string()).collect();
     let (t0, t1) = model.domain().time_range();
     let times = match (&args.times, args.time) {
-        (Some(spec), _) => parse_times(spec)?,
+        // The network takes f32 times (the f64 series rounded once).
+        (Some(series), _) => series.times().into_iter().map(|t| t as f32).collect(),
         (None, Some(t)) => vec![t],
         (None, None) => bail!("give --time T or --times A:B:N"),
     };
@@ -240,7 +209,7 @@ fn mesh_all(args: &Args) -> Result<()> {
         let start = Instant::now();
         let Extraction {
             meshes,
-            grid,
+            lattice,
             stats,
         } = mesh::extract(&model, bounds, t, &classes, &options)?;
         let seconds = start.elapsed().as_secs_f64();
@@ -254,10 +223,10 @@ fn mesh_all(args: &Args) -> Result<()> {
         report(format!(
             "t = {t}: {}x{}x{} cells of {:.4}, {} value + {} jacobian evaluations \
              (dense grid: {} values, {:.1}x more), {seconds:.2} s",
-            grid.cells[0],
-            grid.cells[1],
-            grid.cells[2],
-            grid.h,
+            lattice.cells[0],
+            lattice.cells[1],
+            lattice.cells[2],
+            lattice.h,
             stats.value_evaluations,
             stats.jacobian_evaluations,
             stats.dense_evaluations,
@@ -324,22 +293,6 @@ fn mesh_all(args: &Args) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn time_series_specs() {
-        assert_eq!(parse_times("0:1:5").unwrap(), [0.0, 0.25, 0.5, 0.75, 1.0]);
-        assert_eq!(parse_times("-1:1:3").unwrap(), [-1.0, 0.0, 1.0]);
-        assert_eq!(parse_times("0.5:0.5:1").unwrap(), [0.5]);
-        for (bad, why) in [
-            ("0:1", "expected A:B:N"),
-            ("0:x:3", "end \"x\""),
-            ("0:1:0", "count \"0\""),
-            ("0:1:1", "A = B"),
-        ] {
-            let e = parse_times(bad).unwrap_err().to_string();
-            assert!(e.contains(why), "{bad}: {e}");
-        }
-    }
 
     #[test]
     fn class_tags_are_file_name_safe() {

@@ -1,10 +1,9 @@
 //! `dynaslice picture MODEL INPUT -o FIG.png`: predicted labels and input contours on a plane.
 
 use super::input::{self, InputArgs};
+use super::model::ModelFile;
 use anyhow::{bail, Context, Result};
-use dynaslice_core::Model;
 use dynaslice_figures::picture::{plane_labels, Panel};
-use dynaslice_train::model_file::read_model_bytes;
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice picture`.
@@ -30,9 +29,8 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let bytes = read_model_bytes(&a.model)?;
-    let model =
-        Model::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", a.model.display()))?;
+    let file = ModelFile::open(&a.model)?;
+    let model = file.model();
     let seq = input::read(&a.input)?;
     let frames = seq.frames();
     let Some(frame) = frames.get(a.frame) else {

@@ -1,8 +1,8 @@
 //! `dynaslice query MODEL X Y Z T`.
 
+use super::model::ModelFile;
 use anyhow::Result;
-use dynaslice_core::{Model, UNDEFINED_LABEL};
-use dynaslice_train::model_file::read_model_bytes;
+use dynaslice_core::UNDEFINED_LABEL;
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice query`.
@@ -25,9 +25,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let bytes = read_model_bytes(&args.model)?;
-    let model =
-        Model::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
+    let file = ModelFile::open(&args.model)?;
+    let model = file.model();
     let k = model.num_classes();
     let (mut f, mut grad, mut dfdt) = (vec![0.0; k], vec![[0.0; 3]; k], vec![0.0; k]);
     let x = [args.x, args.y, args.z];

@@ -5,9 +5,9 @@ use super::loss::LossArgs;
 use anyhow::{Context, Result};
 use dynaslice_data::atomic::write_atomically;
 use dynaslice_figures::plot::{line_chart, Series};
-use dynaslice_train::data_sampler::{
-    domain_for, temporal_bound, DataSampler, SampleCounts, DEFAULT_TEMPORAL_FACTOR,
-};
+use dynaslice_train::data_sampler::{domain_for, DataSampler, SampleCounts};
+use dynaslice_train::model_file::TrainedModel;
+use dynaslice_train::temporal_bound::{temporal_bound, DEFAULT_TEMPORAL_FACTOR};
 use dynaslice_train::trainer::{self, Outcome, Progress, TrainOptions};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::fmt::Write as _;
@@ -55,8 +55,8 @@ pub struct Args {
     /// (many planes, several orientations) fits finer at 30: held-out 2D IoU 0.94 against
     /// 0.87–0.91 on the TotalSegmentator CT. At 30 add `--warmup-steps 100`: without it,
     /// models measured there collapsed into spurious insides in some seeds. 15-plane `.csl`
-    /// inputs and the moving synthetic chambers lose at 30 (docs/training.md, "ω₀ and the
-    /// initial offset").
+    /// inputs and the moving synthetic chambers lose at 30 (docs/training.md, "When to change
+    /// ω₀"; the measurements are in lab/notes/training.md).
     #[arg(long, default_value_t = TrainOptions::default().omega_0)]
     omega0: f32,
     /// Initial value of every channel in normalised units (the domain's half-width is 1): the
@@ -73,7 +73,8 @@ pub struct Args {
     ///
     /// Worth it at `--omega0 30`, where the first full-size steps can turn large regions of a
     /// channel inside: with 100 steps and the default `--init-offset` every model measured
-    /// there was stable (docs/training.md, "Learning-rate warm-up"). At the default ω₀ it is
+    /// there was stable (docs/training.md, "When to change ω₀, and the learning-rate warm-up";
+    /// the runs are in lab/notes/training.md, "Learning-rate warm-up"). At the default ω₀ it is
     /// not needed.
     #[arg(long, default_value_t = TrainOptions::default().warmup_steps)]
     warmup_steps: u64,
@@ -150,39 +151,22 @@ pub fn run(a: Args) -> Result<()> {
     }
     let outcome = run_with_progress(&options, k, &mut sampler)?;
 
-    let mut metadata = format!("trainer = dynaslice {}\n", env!("CARGO_PKG_VERSION"));
-    writeln!(
-        metadata,
-        "input = {}\nframes = {}",
-        a.input.input.display(),
-        a.input.frames
-    )?;
-    metadata += &options.describe();
-    writeln!(
-        metadata,
-        "temporal_factor = {}\nsteps_done = {}",
-        a.temporal_factor, outcome.steps_done
-    )?;
-    writeln!(
-        metadata,
-        "samples = {} contour + {} plane per class, {} space-time",
-        counts.contour_per_class, counts.plane_per_class, counts.space
-    )?;
-    if let Some(w) = &a.class_weights {
-        writeln!(metadata, "class_weights = {w:?}")?;
+    let bytes = TrainedModel {
+        outcome: &outcome,
+        domain,
+        classes: seq.classes(),
+        options: &options,
+        counts,
+        temporal_factor: a.temporal_factor,
+        class_weights: a.class_weights.as_deref(),
+        input: &format!(
+            "input = {}\nframes = {}",
+            a.input.input.display(),
+            a.input.frames
+        ),
     }
-    if let Some(last) = outcome.history.last() {
-        writeln!(metadata, "final_loss = {}", last.2)?;
-    }
-    let classes = seq
-        .classes()
-        .iter()
-        .map(|c| (c.name.clone(), c.label))
-        .collect();
-    let writer = outcome.network.to_writer(domain, classes, metadata);
-    let bytes = writer
-        .try_to_bytes()
-        .map_err(|e| anyhow::anyhow!("cannot write the model: {e}"))?;
+    .to_bytes()
+    .map_err(|e| anyhow::anyhow!("cannot write the model: {e}"))?;
     write_atomically(&a.output, &bytes)?;
     write_loss_log(&a.output, &outcome)?;
     eprintln!(

@@ -1,6 +1,6 @@
 //! `dynaslice demo` end to end at a tiny size: every output it promises exists and is valid.
 
-use dynaslice_core::Model;
+use dynaslice_core::ModelBytes;
 use dynaslice_data::nifti::read_volume;
 use std::process::Command;
 
@@ -37,8 +37,8 @@ fn demo_writes_model_meshes_series_labels_and_figure() {
     ] {
         assert!(log.contains(line), "the demo echoes {line:?}");
     }
-    let bytes = dynaslice_train::model_file::read_model_bytes(&out.join("model.dsm")).unwrap();
-    let model = Model::from_bytes(&bytes).unwrap();
+    let bytes = ModelBytes::read(&out.join("model.dsm")).unwrap();
+    let model = bytes.model().unwrap();
     assert_eq!(model.num_classes(), 3, "the chambers: three classes");
     let pvd = std::fs::read_to_string(out.join("meshes/series.pvd")).unwrap();
     assert_eq!(

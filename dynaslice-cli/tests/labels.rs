@@ -2,8 +2,9 @@
 //! a box grid, the grid of a reference image (oblique, 4D; and a real one from ../shared), and
 //! the command's errors.
 
-use dynaslice_core::Model;
+use dynaslice_core::ModelBytes;
 use dynaslice_data::nifti::{read_volume, write_volume, LabelVolume};
+use dynaslice_test_support::fixtures::shared_data;
 use dynaslice_test_support::spheres::{self, Sphere};
 use std::path::Path;
 use std::process::{Command, Output};
@@ -37,8 +38,8 @@ fn dynaslice(args: &[&str]) -> Output {
 
 /// Every voxel of `volume` holds the model's own Eq. 11 label at its centre, as a source value.
 fn check_against_the_model(volume: &LabelVolume, model_path: &str, times: &[f64]) {
-    let bytes = std::fs::read(model_path).unwrap();
-    let model = Model::from_bytes(&bytes).unwrap();
+    let bytes = ModelBytes::read(Path::new(model_path)).unwrap();
+    let model = bytes.model().unwrap();
     let values = [0, 3, 12];
     let [nx, ny, nz] = volume.dims;
     let mut seen = [0usize; 3];
@@ -139,12 +140,9 @@ fn reference_grid_is_copied_exactly() {
 /// A real segmentation's grid (122×101×30, 3 mm): only its geometry is used.
 #[test]
 fn real_reference_from_shared_data() {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/nifti/example_seg.nii.gz");
-    if !path.exists() {
-        println!("skipped: {} is absent", path.display());
+    let Some(path) = shared_data("nifti/example_seg.nii.gz") else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().unwrap();
     let model = write_model(dir.path());
     let out = dir.path().join("seg_labels.nii.gz");

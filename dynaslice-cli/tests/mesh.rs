@@ -1,86 +1,36 @@
 //! `dynaslice mesh` and the mesh library on a real model file whose zero sets are known: a
-//! hand-built one-layer SIREN computing two spheres (see [`two_spheres`]). Checks that sparse
+//! hand-built one-layer SIREN computing two spheres (`dynaslice_test_support::spheres`, see
+//! [`two_spheres`]). Checks that sparse
 //! extraction through the network equals dense extraction, the geometry and normal velocity
 //! against closed forms, and the command line's files and errors.
 
-use dynaslice_core::format::{ModelWriter, WeightType};
-use dynaslice_core::{Domain, Model};
+use dynaslice_core::ModelBytes;
 use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
+use dynaslice_test_support::spheres::{self, Sphere, SPHERES_DOMAIN};
 use std::f64::consts::PI;
 use std::path::Path;
 use std::process::Command;
 
-/// World domain: centre (10, −5, 2), half-extent 20 (σ = 20), time 0..2.
-const DOMAIN: Domain = Domain {
-    center: [10.0, -5.0, 2.0],
-    scale: [20.0; 3],
-    time_origin: 0.0,
-    time_span: 2.0,
-    output_scale: 20.0,
-};
 /// Class 1: radius² = R² + 2·R·V·t in normalised units (R = 0.5, V = 0.1), centred.
 const R1: f64 = 0.5;
 const V1: f64 = 0.1;
 /// Class 2: a static sphere of radius 0.3 at normalised (0.4, 0, 0), overlapping class 1.
 const R2: f64 = 0.3;
 const C2: [f64; 3] = [0.4, 0.0, 0.0];
-/// First-layer frequency of the quadratic units: 2(1 − cos(εx))/ε² = x² − ε²x⁴/12 + …, which
-/// moves these spheres by < 1e-4 of their radius. A smaller ε would lose the x² term to f32
-/// rounding of cos(εx) ≈ 1.
-const EPS: f64 = 0.1;
-/// Frequency of the linear units: sin(εx)/ε = x − ε²x³/6 + …; sin(εx) is small, so its f32
-/// rounding is relative to itself and ε can be tiny.
-const EPS_LINEAR: f64 = 0.01;
 
 /// Normalised class-1 radius at normalised time t.
 fn r1(t: f64) -> f64 {
     (R1 * R1 + 2.0 * R1 * V1 * t).sqrt()
 }
 
-/// A 2-class model with one sine layer of 7 units, cos(εx_a), sin(ε'x_a) and sin(ε't), whose
-/// output layer combines them into f¹ = (|x|² − R² − 2RVt)/(2R) and
-/// f² = (|x − c|² − r²)/(2r): sphere SDFs to first order at their surfaces.
+/// The two classes above in [`SPHERES_DOMAIN`] (centre (10, −5, 2), half-extent 20 = σ, time
+/// 0..2): f¹ = (|x|² − R² − 2RVt)/(2R) and f² = (|x − c|² − r²)/(2r), sphere SDFs to first
+/// order at their surfaces.
 fn two_spheres() -> Vec<u8> {
-    let widths = [7u32];
-    let mut params = Vec::new();
-    // First layer Wᵀ: rows x, y, z, t of 7 frequencies, then 7 phases.
-    for input in 0..4 {
-        let row: [f64; 7] = std::array::from_fn(|unit| {
-            let axis = if unit < 6 { unit % 3 } else { 3 };
-            match (axis == input, unit) {
-                (false, _) => 0.0,
-                (true, 0..=2) => EPS,
-                (true, _) => EPS_LINEAR,
-            }
-        });
-        params.extend(row);
-    }
-    params.extend([PI / 2.0, PI / 2.0, PI / 2.0, 0.0, 0.0, 0.0, 0.0]);
-    // Output layer Wᵀ: 7 rows of 2 classes, then 2 biases.
-    let quad = |r: f64| -1.0 / (EPS * EPS * r);
-    for unit in 0..7 {
-        let (a, b) = match unit {
-            0..=2 => (quad(R1), quad(R2)),
-            3..=5 => (0.0, -C2[unit - 3] / (R2 * EPS_LINEAR)),
-            _ => (-V1 / EPS_LINEAR, 0.0),
-        };
-        params.extend([a, b]);
-    }
-    let c2 = C2.iter().map(|c| c * c).sum::<f64>();
-    params.extend([
-        3.0 / (EPS * EPS * R1) - R1 / 2.0,
-        3.0 / (EPS * EPS * R2) + (c2 - R2 * R2) / (2.0 * R2),
-    ]);
-    ModelWriter {
-        widths: widths.to_vec(),
-        classes: vec![("ball".into(), 1), ("small ball".into(), 7)],
-        domain: DOMAIN,
-        omega_t_max: 1.0,
-        params: params.into_iter().map(|v| v as f32).collect(),
-        metadata: String::new(),
-        weight_type: WeightType::F32,
-    }
-    .to_bytes()
+    spheres::model(
+        &[Sphere::new([0.0; 3], R1, V1), Sphere::new(C2, R2, 0.0)],
+        &[("ball", 1), ("small ball", 7)],
+    )
 }
 
 fn rel(a: f64, b: f64) -> f64 {
@@ -89,10 +39,10 @@ fn rel(a: f64, b: f64) -> f64 {
 
 #[test]
 fn sparse_extraction_through_the_network_equals_dense_and_the_closed_forms() {
-    let bytes = two_spheres();
-    let model = Model::from_bytes(&bytes).unwrap();
+    let bytes = ModelBytes::copy_from(&two_spheres());
+    let model = bytes.model().unwrap();
     let bounds = model.domain().bounds();
-    let s = DOMAIN.scale[0] as f64;
+    let s = SPHERES_DOMAIN.scale[0] as f64;
     for surfaces in [Surfaces::Overlapping, Surfaces::Partition] {
         let sparse = Options {
             resolution: 48,
@@ -135,7 +85,7 @@ fn sparse_extraction_through_the_network_equals_dense_and_the_closed_forms() {
                 assert!((mean(axis) / n - want).abs() < 0.05, "axis {axis}");
             }
             // v_n = −(∂f/∂t)/‖∇f‖ = V·R/r in normalised units, times s/τ in world units.
-            let want = V1 * R1 / r * s / DOMAIN.time_span as f64;
+            let want = V1 * R1 / r * s / SPHERES_DOMAIN.time_span as f64;
             for v in &a.meshes[0].normal_velocity {
                 assert!((*v as f64 - want).abs() < 1e-2 * want, "{v} vs {want}");
             }

@@ -1,7 +1,7 @@
 //! `dynaslice info` and `dynaslice query` on a model the test writes, and their errors.
 
 use dynaslice_core::format::ModelWriter;
-use dynaslice_core::{Domain, Model};
+use dynaslice_core::{Domain, ModelBytes};
 use std::process::Command;
 
 fn dynaslice(args: &[&str]) -> (bool, String, String) {
@@ -42,7 +42,8 @@ fn info_and_query_report_the_model() {
 
     let (ok, out, err) = dynaslice(&["query", p, "12.5", "-3", "0", "0.4"]);
     assert!(ok, "{err}");
-    let model = Model::from_bytes(&bytes).unwrap();
+    let aligned = ModelBytes::copy_from(&bytes);
+    let model = aligned.model().unwrap();
     let mut f = [0.0; 2];
     model.eval([12.5, -3.0, 0.0], 0.4, &mut f).unwrap();
     let line = out.lines().find(|l| l.contains("liver")).unwrap();

@@ -2,7 +2,7 @@
 //! run killed mid-way then resumed, which must end with the same model, bit for bit, as an
 //! uninterrupted run.
 
-use dynaslice_core::Model;
+use dynaslice_core::ModelBytes;
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
@@ -21,8 +21,8 @@ fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {
         .output()
         .unwrap();
     succeeded(&out);
-    let bytes = std::fs::read(&straight).unwrap();
-    let model = Model::from_bytes(&bytes).unwrap();
+    let bytes = ModelBytes::read(&straight).unwrap();
+    let model = bytes.model().unwrap();
     assert_eq!(model.domain().time_range(), (0.0, 2.0));
     assert!(
         model.omega_t_max() > 0.0,
@@ -74,7 +74,7 @@ fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {
     succeeded(&out);
     assert_eq!(
         std::fs::read(&resumed).unwrap(),
-        bytes,
+        bytes.as_bytes(),
         "resumed model differs from the uninterrupted one"
     );
 }
@@ -128,8 +128,8 @@ fn class_weights_are_validated_and_recorded() {
         .output()
         .unwrap();
     succeeded(&out);
-    let bytes = dynaslice_train::model_file::read_model_bytes(&model).unwrap();
-    let m = dynaslice_core::Model::from_bytes(&bytes).unwrap();
+    let bytes = ModelBytes::read(&model).unwrap();
+    let m = bytes.model().unwrap();
     assert!(
         m.metadata().contains("class_weights = [3.0]"),
         "{}",

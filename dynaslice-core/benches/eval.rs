@@ -20,7 +20,7 @@
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, Throughput};
 use dynaslice_core::format::{ModelWriter, WeightType};
-use dynaslice_core::{Layout, Model, Scratch};
+use dynaslice_core::{Layout, ModelBytes, Scratch};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -157,21 +157,12 @@ fn sgemm(group: &mut BenchmarkGroup<WallTime>, m: usize, k: usize, n: usize) -> 
         .collect()
 }
 
-/// A model's bytes, copied to an allocation aligned for its weights (a `Vec<u8>` need not be).
-fn aligned(bytes: &[u8]) -> Vec<u64> {
-    let mut words = vec![0u64; bytes.len().div_ceil(8)];
-    bytemuck::cast_slice_mut::<u64, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
-    words
-}
-
 /// f and f+∇ₓf, single points and batches, for one model.
 fn model(c: &mut Criterion, name: &str, widths: &[u32], weight_type: WeightType) -> Vec<Row> {
     let mut writer = ModelWriter::random_siren(widths, CLASSES, 1);
     writer.weight_type = weight_type;
-    let raw = writer.to_bytes();
-    let words = aligned(&raw);
-    let bytes = &bytemuck::cast_slice::<u64, u8>(&words)[..raw.len()];
-    let model = Model::from_bytes(bytes).expect("valid benchmark model");
+    let bytes = ModelBytes::copy_from(&writer.to_bytes());
+    let model = bytes.model().expect("valid benchmark model");
     let layout: &Layout = model.layout();
     let k = layout.num_classes();
     let macs = layout.macs_per_point() as f64;

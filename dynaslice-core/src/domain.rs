@@ -72,19 +72,6 @@ impl Domain {
         ]
     }
 
-    /// Normalised point and time back to world units.
-    #[inline]
-    pub fn denormalise(&self, n: [f32; 4]) -> ([f32; 3], f32) {
-        (
-            [
-                self.center[0] + n[0] * self.scale[0],
-                self.center[1] + n[1] * self.scale[1],
-                self.center[2] + n[2] * self.scale[2],
-            ],
-            self.time_origin + n[3] * self.time_span,
-        )
-    }
-
     /// Factors turning derivatives of the normalised network into world derivatives, for the
     /// inputs x, y, z, t: σ/s_x, σ/s_y, σ/s_z, σ/τ.
     #[inline]

@@ -13,9 +13,11 @@
 //! kernel is an axpy loop that compilers vectorise for any target (SSE2, NEON, Helium) and is
 //! what single points use. Measurements: docs/performance.md.
 //!
-//! With the `std` feature the AVX kernels are chosen at run time (never `target-cpu=native`);
-//! without it, only when the build enables the target features at compile time.
+//! With the `std` feature the AVX kernels are chosen at run time by [`Level::detect`] (never
+//! `target-cpu=native`); without it, the portable kernels use whatever target features the build
+//! enables.
 
+use crate::cpu::Level;
 use crate::layout::INPUT_DIM;
 use crate::model::Weights;
 use crate::sine::{sin_cos_with, sin_with, MulAdd, Separate};
@@ -82,42 +84,21 @@ pub(crate) const PORTABLE: Kernels = Kernels {
     activate: activate_generic::<Separate>,
 };
 
+/// The kernels of `level`: the AVX sets are reachable only through its token.
+pub(crate) fn for_level(level: Level) -> Kernels {
+    match level {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        Level::Avx512(cpu) => x86::avx512(cpu),
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        Level::Avx2(cpu) => x86::avx2(cpu),
+        // Off x86-64 or without `std` no token can be made: `Level::detect` is `Portable`.
+        _ => PORTABLE,
+    }
+}
+
 /// The best kernels for this CPU.
 pub(crate) fn best() -> Kernels {
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    {
-        use core::sync::atomic::{AtomicU8, Ordering};
-        static CHOICE: AtomicU8 = AtomicU8::new(0);
-        let choice = match CHOICE.load(Ordering::Relaxed) {
-            0 => {
-                let c = if std::is_x86_feature_detected!("avx512f")
-                    && std::is_x86_feature_detected!("f16c")
-                    && std::is_x86_feature_detected!("fma")
-                {
-                    3
-                } else if std::is_x86_feature_detected!("avx2")
-                    && std::is_x86_feature_detected!("fma")
-                    && std::is_x86_feature_detected!("f16c")
-                {
-                    2
-                } else {
-                    1
-                };
-                CHOICE.store(c, Ordering::Relaxed);
-                c
-            }
-            c => c,
-        };
-        match choice {
-            3 => x86::AVX512,
-            2 => x86::AVX2,
-            _ => PORTABLE,
-        }
-    }
-    #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
-    {
-        PORTABLE
-    }
+    for_level(Level::detect())
 }
 
 /// f16 → f32, exact, branch-free so that loops over slices vectorise on any target (`half`'s
@@ -253,20 +234,34 @@ fn activate_generic<M: MulAdd>(
 mod x86 {
     //! AVX2 and AVX-512 register-tile kernels.
     //!
-    //! Safety: these functions are only reachable through [`AVX2`] and [`AVX512`], which
-    //! [`super::best`] hands out only after detecting the target features they enable.
+    //! SAFETY: every function here enables features of one [`Level`](crate::cpu::Level) only
+    //! (`avx2,fma,f16c`, or `avx512f,avx2,fma,f16c` of AVX-512's) and is reachable only through
+    //! the table [`avx2`] or [`avx512`] returns, which take the token that `crate::cpu` makes
+    //! only after detecting every feature of the level. The tables and the safe wrappers in
+    //! them are private to this module, so no other path leads to these functions.
     use super::{activate_generic, first_layer_generic, widen, FirstLayer, Kernels, Product};
+    use crate::cpu::{Avx2, Avx512};
     use crate::model::Weights;
     use crate::sine::Fused;
     use core::arch::x86_64::*;
 
-    pub(crate) const AVX512: Kernels = Kernels {
+    /// The AVX-512 kernels, for a CPU that has them.
+    pub(crate) fn avx512(_: Avx512) -> Kernels {
+        AVX512
+    }
+
+    /// The AVX2 kernels, for a CPU that has them.
+    pub(crate) fn avx2(_: Avx2) -> Kernels {
+        AVX2
+    }
+
+    const AVX512: Kernels = Kernels {
         name: "avx512",
         first_layer: first_layer_avx512,
         product: product_avx512,
         activate: activate_avx512,
     };
-    pub(crate) const AVX2: Kernels = Kernels {
+    const AVX2: Kernels = Kernels {
         name: "avx2",
         first_layer: first_layer_avx2,
         product: product_avx2,
@@ -274,11 +269,11 @@ mod x86 {
     };
 
     fn product_avx512(p: &Product, c: &mut [f32], panel: &mut [f32], row: &mut [f32]) {
-        // SAFETY: AVX512 is only handed out after avx512f, f16c and fma were detected.
+        // SAFETY: only in the table `avx512` returns for an Avx512 token (module note).
         unsafe { product_tiled_avx512(p, c, panel, row) }
     }
     fn product_avx2(p: &Product, c: &mut [f32], panel: &mut [f32], row: &mut [f32]) {
-        // SAFETY: AVX2 is only handed out after avx2, fma and f16c were detected.
+        // SAFETY: only in the table `avx2` returns for an Avx2 token (module note).
         unsafe { product_tiled_avx2(p, c, panel, row) }
     }
     fn activate_avx512(
@@ -288,20 +283,20 @@ mod x86 {
         width: usize,
         cos: &mut [f32],
     ) {
-        // SAFETY: as above; the body is plain Rust compiled with wider vectors.
+        // SAFETY: as for `product_avx512`; the body is plain Rust compiled with wider vectors.
         unsafe { activate_512(buf, points, n_tan, width, cos) }
     }
     fn activate_avx2(buf: &mut [f32], points: usize, n_tan: usize, width: usize, cos: &mut [f32]) {
-        // SAFETY: as above.
+        // SAFETY: as for `product_avx2`.
         unsafe { activate_256(buf, points, n_tan, width, cos) }
     }
 
     fn first_layer_avx512(l: &FirstLayer, out: &mut [f32]) {
-        // SAFETY: as above; the body is plain Rust compiled with wider vectors.
+        // SAFETY: as for `product_avx512`; the body is plain Rust compiled with wider vectors.
         unsafe { first_layer_512(l, out) }
     }
     fn first_layer_avx2(l: &FirstLayer, out: &mut [f32]) {
-        // SAFETY: as above.
+        // SAFETY: as for `product_avx2`.
         unsafe { first_layer_256(l, out) }
     }
     #[target_feature(enable = "avx512f,avx2,fma,f16c")]
@@ -566,15 +561,10 @@ mod x86 {
 /// Every kernel set this CPU can run (an AVX-512 machine also tests the AVX2 kernels).
 #[cfg(all(test, feature = "std"))]
 pub(crate) fn all_available() -> impl Iterator<Item = Kernels> {
-    let best = best();
-    #[cfg(target_arch = "x86_64")]
-    let avx2 = (best.name == x86::AVX512.name).then_some(x86::AVX2);
-    #[cfg(not(target_arch = "x86_64"))]
-    let avx2 = None;
-    [PORTABLE]
-        .into_iter()
-        .chain(avx2)
-        .chain((best.name != PORTABLE.name).then_some(best))
+    use crate::cpu::{Avx2, Avx512};
+    let avx2 = Avx2::detect().map(|cpu| for_level(Level::Avx2(cpu)));
+    let avx512 = Avx512::detect().map(|cpu| for_level(Level::Avx512(cpu)));
+    [PORTABLE].into_iter().chain(avx2).chain(avx512)
 }
 
 #[cfg(test)]

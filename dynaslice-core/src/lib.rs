@@ -13,8 +13,9 @@
 //! - Bounded work per query: the cost of one point is fixed by the validated layer widths
 //!   ([`Layout::macs_per_point`]), which are bounded by [`format::MAX_WIDTH`] and friends.
 //!
-//! With the `std` feature, batch evaluation picks AVX2 or AVX-512 kernels at run time, and models
-//! can be written ([`format::ModelWriter`]) and held in aligned owned storage ([`ModelBytes`]).
+//! With the `std` feature, batch evaluation picks AVX2 or AVX-512 kernels at run time
+//! ([`cpu::Level`]), and models can be written ([`format::ModelWriter`]) and held in aligned
+//! owned storage ([`ModelBytes`]).
 //!
 //! ```
 //! # #[cfg(feature = "std")] {
@@ -34,6 +35,7 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod cpu;
 mod crc32;
 pub mod domain;
 mod error;

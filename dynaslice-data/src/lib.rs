@@ -1,5 +1,6 @@
 //! DynaSlice's input side: the sequence of annotated cross-sections ([`Sequence`]), its readers
-//! and writers, the 2D geometry of contours, frame selections, and the synthetic 4D benchmark.
+//! and writers, the 2D geometry of contours, frame selections and time series, and the synthetic
+//! 4D benchmark.
 //!
 //! | source | entry point |
 //! | --- | --- |
@@ -24,8 +25,10 @@ pub mod nifti_stream;
 pub mod reslice;
 pub mod sequence;
 pub mod synth;
+pub mod time_series;
 
 pub use error::{DataError, ErrorKind, Location, Result};
 pub use frame_range::FrameRange;
 pub use label_names::LabelNames;
 pub use sequence::{Aabb, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
+pub use time_series::TimeSeries;

@@ -1,5 +1,6 @@
 //! NIfTI-1 label volumes (`.nii`, `.nii.gz`; 3D or 4D): reading with world coordinates from the
-//! sform/qform, and writing (the synthetic benchmark's ground truth).
+//! sform/qform, and writing a whole volume (the synthetic benchmark's ground truth) through the
+//! one NIfTI writer, [`crate::nifti_stream`].
 //!
 //! Only label data is accepted: an integer voxel type and no intensity scaling. Files are
 //! decompressed by content (gzip magic), not by name. Reading into a [`Sequence`] goes through
@@ -12,6 +13,7 @@ use nifti::{Endianness, NiftiHeader, NiftiType};
 
 use super::error::{DataError, ErrorKind, Result};
 use super::label_names::LabelNames;
+use super::nifti_stream::{NiftiStream, VolumeHeader};
 use super::reslice::{reslice, ResliceOptions};
 use super::sequence::Sequence;
 
@@ -381,52 +383,37 @@ fn decode(raw: &[u8], t: VoxelType, e: Endianness) -> std::result::Result<Vec<i3
     })
 }
 
-/// Writes `volume` as NIfTI-1 (gzip-compressed when `path` ends in `.gz`): the affine as the
-/// sform (`sform_code` 2, aligned; no qform), `pixdim[4]` = frame interval, and the narrowest of
-/// u8/i16/i32 that holds the labels.
+/// Writes `volume` as NIfTI-1 (gzip-compressed when `path` ends in `.gz`) through
+/// [`NiftiStream`], one frame at a time: the header of [`crate::nifti_stream`] with the labels'
+/// range, time offset 0 and no description.
 pub fn write_volume(volume: &LabelVolume, path: &Path) -> Result<()> {
-    let at = |e: nifti::NiftiError| {
-        DataError::new(ErrorKind::Nifti(format!("cannot write: {e}"))).in_file(path)
-    };
-    let [nx, ny, nz] = volume.dims;
-    let a = volume.affine;
-    let spacing: [f32; 3] =
-        std::array::from_fn(|c| (0..3).map(|r| a[r][c] * a[r][c]).sum::<f64>().sqrt() as f32);
-    let header = NiftiHeader {
-        pixdim: [
-            1.0,
-            spacing[0],
-            spacing[1],
-            spacing[2],
-            volume.frame_interval as f32,
-            1.0,
-            1.0,
-            1.0,
-        ],
-        sform_code: 2,
-        qform_code: 0,
-        srow_x: a[0].map(|v| v as f32),
-        srow_y: a[1].map(|v| v as f32),
-        srow_z: a[2].map(|v| v as f32),
-        xyzt_units: 2 | 8, // millimetres, seconds (NIFTI_UNITS_MM | NIFTI_UNITS_SEC)
-        ..NiftiHeader::default()
-    };
-    let shape = (nx, ny, nz, volume.frames);
-    // NIfTI stores x fastest; ndarray's [x, y, z, t] array is written transposed by the crate.
-    let index = |(i, j, k, f): (usize, usize, usize, usize)| {
-        volume.labels[i + nx * (j + ny * (k + nz * f))]
-    };
+    let voxels: usize = volume.dims.iter().product();
     let (lo, hi) = volume
         .labels
         .iter()
         .fold((0, 0), |(lo, hi), &v| (v.min(lo), v.max(hi)));
-    let writer = nifti::writer::WriterOptions::new(path).reference_header(&header);
-    if lo >= 0 && hi <= i32::from(u8::MAX) {
-        writer.write_nifti(&ndarray::Array4::from_shape_fn(shape, |q| index(q) as u8))
-    } else if lo >= i32::from(i16::MIN) && hi <= i32::from(i16::MAX) {
-        writer.write_nifti(&ndarray::Array4::from_shape_fn(shape, |q| index(q) as i16))
-    } else {
-        writer.write_nifti(&ndarray::Array4::from_shape_fn(shape, index))
-    }
-    .map_err(at)
+    let header = VolumeHeader {
+        dims: volume.dims,
+        frames: volume.frames,
+        affine: volume.affine,
+        frame_interval: volume.frame_interval,
+        time_offset: 0.0,
+        label_range: (lo, hi),
+        description: String::new(),
+    };
+    let write = || -> anyhow::Result<()> {
+        anyhow::ensure!(
+            volume.labels.len() == voxels * volume.frames,
+            "{} labels for {} frames of {voxels} voxels",
+            volume.labels.len(),
+            volume.frames
+        );
+        let mut stream = NiftiStream::create(path, &header)?;
+        for frame in volume.labels.chunks_exact(voxels.max(1)) {
+            stream.write_frame(frame)?;
+        }
+        stream.finish()
+    };
+    write()
+        .map_err(|e| DataError::new(ErrorKind::Nifti(format!("cannot write: {e:#}"))).in_file(path))
 }

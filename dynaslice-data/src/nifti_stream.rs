@@ -1,7 +1,7 @@
 //! A NIfTI-1 label-volume writer that streams: the header first, then each frame's voxels as
 //! they are computed, through gzip for `.gz` names. Memory is one frame's encoding buffer,
-//! whatever the number of frames, unlike [`crate::nifti::write_volume`], which needs the
-//! whole volume as an array.
+//! whatever the number of frames. The only NIfTI writer: [`crate::nifti::write_volume`] writes a
+//! whole [`crate::nifti::LabelVolume`] through it.
 //!
 //! The header is written field by field at the offsets of the NIfTI-1 standard (`nifti1.h`):
 //! the `nifti` crate only serialises headers inside its whole-array writer.
@@ -10,7 +10,8 @@
 //!   affine has orthogonal columns; an affine with shear has no qform form, so `qform_code` is
 //!   then 0 and readers use the sform;
 //! - `pixdim[4]` = the frame interval, `toffset` = the first frame's time, units mm and s;
-//! - `intent_code` = `NIFTI_INTENT_LABEL`, `cal_min`/`cal_max` = the label range;
+//! - `intent_code` = `NIFTI_INTENT_LABEL`, `cal_min`/`cal_max` = the label range, `descrip` = the
+//!   description;
 //! - datatype int16 when every label value fits, else int32.
 //!
 //! The file is written beside its destination under a temporary name and renamed when the last
@@ -28,8 +29,10 @@ const HEADER_SIZE: usize = 348;
 const VOX_OFFSET: usize = HEADER_SIZE + 4;
 /// `NIFTI_INTENT_LABEL`: voxel values are label indices.
 const INTENT_LABEL: i16 = 1002;
-/// `NIFTI_XFORM_ALIGNED_ANAT`, the code `data::nifti::write_volume` also writes.
+/// `NIFTI_XFORM_ALIGNED_ANAT`.
 const XFORM_ALIGNED: i16 = 2;
+/// Size of `descrip`, including its terminating NUL.
+const DESCRIPTION_BYTES: usize = 80;
 
 /// Voxel type of a label volume.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,6 +76,8 @@ pub struct VolumeHeader {
     pub time_offset: f64,
     /// Smallest and largest label value that will be written.
     pub label_range: (i32, i32),
+    /// What the volume holds (`descrip`, at most 79 bytes).
+    pub description: String,
 }
 
 enum Sink {
@@ -109,6 +114,12 @@ impl NiftiStream {
         let (lo, hi) = header.label_range;
         ensure!(lo <= hi, "label range {lo}..{hi} is empty");
         ensure!(header.frames >= 1, "a volume needs at least one frame");
+        ensure!(
+            header.description.len() < DESCRIPTION_BYTES,
+            "description {:?} is longer than NIfTI-1's {} bytes",
+            header.description,
+            DESCRIPTION_BYTES - 1
+        );
         for (a, &n) in header.dims.iter().enumerate() {
             ensure!(
                 (1..=i16::MAX as usize).contains(&n),
@@ -286,7 +297,7 @@ fn encode_header(h: &VolumeHeader, label_type: LabelType) -> [u8; VOX_OFFSET] {
     let (lo, hi) = h.label_range;
     put(124, &f32s(&[f64::from(hi), f64::from(lo)])); // cal_max, cal_min
     put(136, &f32s(&[h.time_offset])); // toffset
-    put(148, b"dynaslice labels (Eq. 11 argmin)");
+    put(148, h.description.as_bytes());
     let qform_code = if qform.is_some() { XFORM_ALIGNED } else { 0 };
     put(252, &i16s(&[qform_code, XFORM_ALIGNED]));
     if let Some(q) = qform {
@@ -386,6 +397,7 @@ mod tests {
             frame_interval: 0.25,
             time_offset: 0.0,
             label_range: range,
+            description: "test".into(),
         }
     }
 
@@ -488,6 +500,7 @@ mod tests {
             let path = dir.path().join("q.nii");
             write(&path, &header(affine, 1, (0, 1)), |_, v| (v % 2) as i32);
             let mut bytes = std::fs::read(&path).unwrap();
+            assert_eq!(&bytes[148..153], b"test\0", "descrip");
             assert_eq!(
                 i16::from_le_bytes([bytes[252], bytes[253]]),
                 2,
@@ -540,12 +553,23 @@ mod tests {
             &path,
             &VolumeHeader {
                 dims: [0, 1, 1],
-                ..h
+                ..h.clone()
             },
         )
         .err()
         .unwrap()
         .to_string();
         assert!(e.contains("0 voxels on axis 0"), "{e}");
+        let e = NiftiStream::create(
+            &path,
+            &VolumeHeader {
+                description: "x".repeat(80),
+                ..h
+            },
+        )
+        .err()
+        .unwrap()
+        .to_string();
+        assert!(e.contains("longer than NIfTI-1's 79 bytes"), "{e}");
     }
 }

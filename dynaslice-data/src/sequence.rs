@@ -286,11 +286,6 @@ impl Sequence {
             .collect();
         Sequence::new(vec![info], frames)
     }
-
-    /// The index of the class with source label `label`.
-    pub fn class_by_label(&self, label: i32) -> Option<usize> {
-        self.classes.iter().position(|c| c.label == label)
-    }
 }
 
 fn grow(b: &mut Aabb, x: [f64; 3]) {

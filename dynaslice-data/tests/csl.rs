@@ -1,31 +1,19 @@
 //! `.csl` reader: grammar, label → class mapping, manifests, every malformed-input error, and the
 //! real upstream files from `../shared/data/csl` when present.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use dynaslice_data::geometry::polygon::signed_area;
 use dynaslice_data::{csl, ErrorKind, LabelNames};
+use dynaslice_test_support::fixtures::{
+    csl_file, shared_data, SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE,
+};
 
 /// Two planes z = 0 and z = 1 (0x + 0y + 1z + D = 0): a square with a square hole (single-object
 /// convention, hole labelled 2), then an empty plane.
-const SQUARE_WITH_HOLE: &str = "CSLC
-2 2
-
-1 8 2 0 0 1 0
-
-0 0 0
-4 0 0
-4 4 0
-0 4 0
-1 1 0
-3 1 0
-3 3 0
-1 3 0
-4 1 0 1 2 3
-4h0 2 4 7 6 5
-
-2 0 0 0 0 1 -1
-";
+fn square_with_hole() -> String {
+    csl_file(2, &[SQUARE_WITH_HOLE_PLANE, "2 0 0 0 0 1 -1\n"])
+}
 
 fn parse(text: &str) -> dynaslice_data::Result<dynaslice_data::Sequence> {
     csl::parse(text, Path::new("test.csl"), &LabelNames::default())
@@ -33,7 +21,7 @@ fn parse(text: &str) -> dynaslice_data::Result<dynaslice_data::Sequence> {
 
 #[test]
 fn square_with_hole_single_object_convention() {
-    let seq = parse(SQUARE_WITH_HOLE).unwrap();
+    let seq = parse(&square_with_hole()).unwrap();
     assert_eq!(seq.classes().len(), 1, "label 2 on a hole is not a class");
     assert_eq!(seq.classes()[0].label, 1);
     assert_eq!(seq.classes()[0].name, "label 1");
@@ -56,12 +44,8 @@ fn square_with_hole_single_object_convention() {
 
 #[test]
 fn multi_label_holes_carry_their_parents_label() {
-    let text = SQUARE_WITH_HOLE
-        .replace("4h0 2 4 7 6 5", "4h0 1 4 7 6 5")
-        .replace(
-            "2 0 0 0 0 1 -1",
-            "2 3 1 0 0 1 -1\n0 0 1\n1 0 1\n0 1 1\n3 7 0 1 2",
-        );
+    let hole_of_1 = SQUARE_WITH_HOLE_PLANE.replace("4h0 2 4 7 6 5", "4h0 1 4 7 6 5");
+    let text = csl_file(2, &[hole_of_1.as_str(), TRIANGLE_PLANE]);
     let names = LabelNames::parse("7 liver\n").unwrap();
     let seq = csl::parse(&text, Path::new("m.csl"), &names).unwrap();
     let labels: Vec<i32> = seq.classes().iter().map(|c| c.label).collect();
@@ -91,35 +75,35 @@ fn err(text: &str) -> String {
 fn malformed_inputs_name_file_line_plane_and_problem() {
     let m = err("CSLX\n1 1\n");
     assert!(m.contains("line 1") && m.contains("CSLC"), "{m}");
-    let m = err(&SQUARE_WITH_HOLE.replace("4 1 0 1 2 3", "4 1 0 1 2"));
+    let m = err(&square_with_hole().replace("4 1 0 1 2 3", "4 1 0 1 2"));
     assert!(
         m.contains("indices of component 0") && m.contains("says 4") && m.contains("plane 0"),
         "{m}"
     );
-    let m = err(&SQUARE_WITH_HOLE.replace("1 8 2 0 0 1 0", "1 9 2 0 0 1 0"));
+    let m = err(&square_with_hole().replace("1 8 2 0 0 1 0", "1 9 2 0 0 1 0"));
     assert!(m.contains("vertex 8") && m.contains("vertex count"), "{m}");
-    let m = err(&SQUARE_WITH_HOLE.replace("2 2\n", "3 2\n"));
+    let m = err(&square_with_hole().replace("2 2\n", "3 2\n"));
     assert!(m.contains("planes") && m.contains("says 3"), "{m}");
-    let m = err(&format!("{SQUARE_WITH_HOLE}\n0 0 0\n"));
+    let m = err(&format!("{}\n0 0 0\n", square_with_hole()));
     assert!(m.contains("after the last plane"), "{m}");
-    let m = err(&SQUARE_WITH_HOLE.replace("4 4 0\n", "4 NaN 0\n"));
+    let m = err(&square_with_hole().replace("4 4 0\n", "4 NaN 0\n"));
     assert!(m.contains("not finite") && m.contains("line 8"), "{m}");
-    let m = err(&SQUARE_WITH_HOLE.replace("4 4 0\n", "4 4 0.5\n"));
+    let m = err(&square_with_hole().replace("4 4 0\n", "4 4 0.5\n"));
     assert!(m.contains("off its plane") && m.contains("vertex 2"), "{m}");
-    let m = err(&SQUARE_WITH_HOLE.replace("4h0 2", "4h0 5"));
+    let m = err(&square_with_hole().replace("4h0 2", "4h0 5"));
     assert!(m.contains("hole labelled 5"), "{m}");
-    let m = err(&SQUARE_WITH_HOLE.replace("4 1 0 1 2 3", "4 1 0 1 2 9"));
+    let m = err(&square_with_hole().replace("4 1 0 1 2 3", "4 1 0 1 2 9"));
     assert!(m.contains("out of range"), "{m}");
-    let m = err(&SQUARE_WITH_HOLE.replace("4h0 2", "4h1 2"));
+    let m = err(&square_with_hole().replace("4h0 2", "4h1 2"));
     assert!(m.contains("parent"), "{m}");
-    let m = err(&SQUARE_WITH_HOLE.replace("1 8 2 0 0 1 0", "1 8 2 0 0 0 0"));
+    let m = err(&square_with_hole().replace("1 8 2 0 0 1 0", "1 8 2 0 0 0 0"));
     assert!(m.contains("normal") && m.contains("zero"), "{m}");
 }
 
 #[test]
 fn geometry_errors_name_timestep_plane_class_polygon() {
     // Bow-tie: vertices 0 1 3 2 cross.
-    let e = parse(&SQUARE_WITH_HOLE.replace("4 1 0 1 2 3", "4 1 0 1 3 2")).unwrap_err();
+    let e = parse(&square_with_hole().replace("4 1 0 1 2 3", "4 1 0 1 3 2")).unwrap_err();
     assert!(matches!(e.kind, ErrorKind::SelfIntersection(_)), "{e}");
     let m = e.to_string();
     assert!(
@@ -129,29 +113,29 @@ fn geometry_errors_name_timestep_plane_class_polygon() {
         "{m}"
     );
     // Two vertices: degenerate.
-    let e = parse(&SQUARE_WITH_HOLE.replace("4 1 0 1 2 3", "2 1 0 1")).unwrap_err();
+    let e = parse(&square_with_hole().replace("4 1 0 1 2 3", "2 1 0 1")).unwrap_err();
     assert!(
         matches!(e.kind, ErrorKind::Degenerate(_)) && e.to_string().contains("polygon 0"),
         "{e}"
     );
     // Hole outside its parent.
     let e = parse(
-        &SQUARE_WITH_HOLE.replace("1 1 0\n3 1 0\n3 3 0\n1 3 0", "5 5 0\n6 5 0\n6 6 0\n5 6 0"),
+        &square_with_hole().replace("1 1 0\n3 1 0\n3 3 0\n1 3 0", "5 5 0\n6 5 0\n6 6 0\n5 6 0"),
     )
     .unwrap_err();
     assert!(e.to_string().contains("lies outside it"), "{e}");
     // No contour at all.
-    let e = parse("CSLC\n1 1\n1 0 0 0 0 1 0\n").unwrap_err();
+    let e = parse(&csl_file(1, &["1 0 0 0 0 1 0\n"])).unwrap_err();
     assert!(matches!(e.kind, ErrorKind::Empty(_)), "{e}");
 }
 
 #[test]
 fn manifest_sequence_and_its_errors() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("a.csl"), SQUARE_WITH_HOLE).unwrap();
+    std::fs::write(dir.path().join("a.csl"), square_with_hole()).unwrap();
     std::fs::write(
         dir.path().join("b.csl"),
-        SQUARE_WITH_HOLE.replace("4 4 0", "4 5 0"),
+        square_with_hole().replace("4 4 0", "4 5 0"),
     )
     .unwrap();
     let manifest = dir.path().join("seq.txt");
@@ -170,7 +154,7 @@ fn manifest_sequence_and_its_errors() {
 
     std::fs::write(
         dir.path().join("bad.csl"),
-        SQUARE_WITH_HOLE.replace("4 1 0 1 2 3", "4 1 0 1 3 2"),
+        square_with_hole().replace("4 1 0 1 2 3", "4 1 0 1 3 2"),
     )
     .unwrap();
     std::fs::write(&manifest, "0 a.csl\n1 bad.csl\n").unwrap();
@@ -193,19 +177,11 @@ fn manifest_sequence_and_its_errors() {
     );
 }
 
-fn shared_csl() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/csl");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        println!("skipped: {} is absent", dir.display());
-        None
-    }
-}
-
 #[test]
 fn reads_every_upstream_file() {
-    let Some(dir) = shared_csl() else { return };
+    let Some(dir) = shared_data("csl") else {
+        return;
+    };
     let names = LabelNames::default();
     let expect = [
         ("Heart-simplified.csl", 2, 1),

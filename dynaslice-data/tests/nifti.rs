@@ -7,6 +7,7 @@ use dynaslice_data::geometry::polygon::signed_area;
 use dynaslice_data::nifti::{read, read_volume, write_volume, LabelVolume};
 use dynaslice_data::reslice::{reslice, ResliceOptions};
 use dynaslice_data::{ErrorKind, LabelNames};
+use dynaslice_test_support::fixtures::shared_data;
 use nifti::NiftiHeader;
 
 /// Anisotropic voxels, rotated 90° about z and shifted: exercises the affine end to end.
@@ -291,12 +292,9 @@ fn qform_gives_world_coordinates() {
 
 #[test]
 fn reads_the_shared_totalsegmentator_volume() {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/nifti/example_seg.nii.gz");
-    if !path.exists() {
-        println!("skipped: {} is absent", path.display());
+    let Some(path) = shared_data("nifti/example_seg.nii.gz") else {
         return;
-    }
+    };
     let v = read_volume(&path).unwrap();
     assert_eq!((v.dims, v.frames), ([122, 101, 30], 1));
     let seq = read(&path, &ResliceOptions::default(), &LabelNames::default())

@@ -22,12 +22,14 @@ use std::time::Duration;
 
 use dynaslice_data::nifti::{self, LabelVolume};
 use dynaslice_data::reslice::ResliceOptions;
-use dynaslice_data::{
-    csl, native, Annotation, ClassInfo, DataError, ErrorKind, Frame, LabelNames, Plane, Rect,
-    Result, Sequence,
-};
+use dynaslice_data::{csl, native, DataError, ErrorKind, LabelNames, Result, Sequence};
+use dynaslice_test_support::fixtures::{csl_file, SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
+
+mod common;
+
+use common::sample;
 
 // ---------------------------------------------------------------------------------------------
 // Measuring: the largest allocation request per thread, and a deadline per reader call.
@@ -329,28 +331,9 @@ fn text_edits() -> impl Strategy<Value = Vec<TextEdit>> {
 
 /// Two planes: z = 0 with a square and its hole (label 1, hole marked 2), z = 1 with a triangle of
 /// label 7.
-const BASE_CSL: &str = "CSLC
-2 2
-
-1 8 2 0 0 1 0
-
-0 0 0
-4 0 0
-4 4 0
-0 4 0
-1 1 0
-3 1 0
-3 3 0
-1 3 0
-4 1 0 1 2 3
-4h0 2 4 7 6 5
-
-2 3 1 0 0 1 -1
-0 0 1
-1 0 1
-0 1 1
-3 7 0 1 2
-";
+fn base_csl() -> String {
+    csl_file(2, &[SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE])
+}
 
 const CSL_NAME: &str = "mutated.csl";
 
@@ -388,7 +371,7 @@ fn check_csl(text: &str) -> std::result::Result<Option<Sequence>, TestCaseError>
 
 #[test]
 fn csl_control_parses() {
-    let seq = check_csl(BASE_CSL)
+    let seq = check_csl(&base_csl())
         .unwrap()
         .expect("the base .csl is valid");
     let labels: Vec<i32> = seq.classes().iter().map(|c| c.label).collect();
@@ -401,7 +384,7 @@ proptest! {
 
     #[test]
     fn csl_damage_is_ok_or_a_located_error(edits in text_edits()) {
-        check_csl(&apply_text(BASE_CSL, &edits))?;
+        check_csl(&apply_text(&base_csl(), &edits))?;
     }
 }
 
@@ -449,7 +432,7 @@ fn csl_huge_counts_fail_fast_without_reserving_them() {
 /// An error of the whole sequence (here: no class at all) still names the file.
 #[test]
 fn csl_sequence_level_errors_name_the_file() {
-    let (result, _) = parse_csl("CSLC\n1 1\n1 0 0 0 0 1 0\n");
+    let (result, _) = parse_csl(&csl_file(1, &["1 0 0 0 0 1 0\n"]));
     let e = result.unwrap_err();
     assert!(matches!(e.kind, ErrorKind::Empty(_)), "{e}");
     assert!(e.to_string().contains(CSL_NAME), "{e}");
@@ -457,70 +440,6 @@ fn csl_sequence_level_errors_name_the_file() {
 
 // ---------------------------------------------------------------------------------------------
 // Native JSON
-
-/// Two classes over two timesteps, with a class absent on one plane and awkward floats.
-fn json_sample() -> Sequence {
-    let plane = |z: f64, annotations: Vec<Annotation>| Plane {
-        origin: [0.1, -0.2, z],
-        u: [0.6, 0.8, 0.0],
-        v: [-0.8, 0.6, 0.0],
-        roi: Rect {
-            min: [-2.0, -2.0],
-            max: [2.0, 2.0],
-        },
-        annotations,
-    };
-    let tri = vec![[0.0, 0.0], [1.0 / 3.0, 0.1], [0.2, 0.7]];
-    let square = vec![[-1.5, -1.5], [-0.5, -1.5], [-0.5, -0.5], [-1.5, -0.5]];
-    let classes = vec![
-        ClassInfo {
-            name: "liver".into(),
-            label: 5,
-        },
-        ClassInfo {
-            name: "kidney".into(),
-            label: -3,
-        },
-    ];
-    let frames = vec![
-        Frame {
-            time: 0.0,
-            planes: vec![plane(
-                0.0,
-                vec![
-                    Annotation {
-                        class: 0,
-                        polygons: vec![tri.clone()],
-                    },
-                    Annotation {
-                        class: 1,
-                        polygons: vec![],
-                    },
-                ],
-            )],
-        },
-        Frame {
-            time: 1.0 / 7.0,
-            planes: vec![
-                plane(
-                    0.5,
-                    vec![Annotation {
-                        class: 0,
-                        polygons: vec![square],
-                    }],
-                ),
-                plane(
-                    0.25,
-                    vec![Annotation {
-                        class: 1,
-                        polygons: vec![tri],
-                    }],
-                ),
-            ],
-        },
-    ];
-    Sequence::new(classes, frames).expect("the JSON sample is valid")
-}
 
 const JSON_NAME: &str = "mutated.json";
 
@@ -554,7 +473,7 @@ fn check_json(text: &str, path: &Path) -> std::result::Result<Option<Sequence>, 
 #[test]
 fn json_control_parses() {
     let dir = tempfile::tempdir().unwrap();
-    let seq = json_sample();
+    let seq = sample();
     let back = check_json(&native::to_json(&seq), &dir.path().join(JSON_NAME)).unwrap();
     assert_eq!(back.as_ref(), Some(&seq));
 }
@@ -566,7 +485,7 @@ proptest! {
     fn json_damage_is_ok_or_a_typed_error(edits in text_edits()) {
         thread_local! {
             static BASE: (String, tempfile::TempDir) =
-                (native::to_json(&json_sample()), tempfile::tempdir().unwrap());
+                (native::to_json(&sample()), tempfile::tempdir().unwrap());
         }
         let (text, path) = BASE.with(|(json, dir)| (apply_text(json, &edits), dir.path().join(JSON_NAME)));
         check_json(&text, &path)?;
@@ -656,7 +575,7 @@ fn base_files() -> (Vec<u8>, Vec<u8>) {
     let (plain, gz) = (std::fs::read(plain).unwrap(), std::fs::read(gz).unwrap());
     // The header fields below are patched as little endian: check the file is (dim[0] = 4).
     assert_eq!(i16::from_le_bytes([plain[40], plain[41]]), 4);
-    assert_eq!(plain.len(), 352 + 48, "u8 voxels right after the header");
+    assert_eq!(plain.len(), 352 + 96, "i16 voxels right after the header");
     (plain, gz)
 }
 

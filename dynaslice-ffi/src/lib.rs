@@ -18,7 +18,7 @@
 #![warn(missing_docs)]
 
 use core::ffi::{c_char, c_int, CStr};
-use dynaslice_core::{format, Error, Model, Scratch};
+use dynaslice_core::{format, Error, Model, ModelBytes, Scratch};
 use std::cell::RefCell;
 use std::ffi::CString;
 use std::io::Read;
@@ -68,16 +68,17 @@ const _: () = {
 /// A loaded model, opaque: create it with `ds_model_open` or `ds_model_from_bytes`, free it with
 /// `ds_model_free`. Immutable after loading: any number of threads may query one model at once.
 //
-// Inside: an 8-byte aligned copy of the model bytes and a validated `Model` view into it, so
-// queries never re-validate.
+// Inside: the model bytes (8-byte aligned) and a validated `Model` view into them, so queries
+// never re-validate.
 pub struct DsModel {
     /// Borrows `*storage`. The `'static` is a private lie made sound by the ownership below:
     /// the borrow is never handed out with a lifetime longer than `&self`, see [`Self::model`].
     model: Model<'static>,
     /// The model bytes, from `Box::into_raw`, freed in `Drop`. Held as a raw pointer rather than
-    /// a `Box` so that moving a `DsModel` never asserts unique ownership of memory that `model`
-    /// still borrows (a `Box` move would, under Rust's aliasing rules).
-    storage: *mut [u64],
+    /// as a `ModelBytes` (or a `Box` of one) so that moving a `DsModel` never moves the `Box`
+    /// inside `ModelBytes`, which would assert unique ownership of memory that `model` still
+    /// borrows under Rust's aliasing rules.
+    storage: *mut ModelBytes,
 }
 
 // SAFETY: `storage` is only written when dropped (with `&mut self`), and `Model` is `Sync` and
@@ -89,22 +90,11 @@ unsafe impl Sync for DsModel {}
 impl DsModel {
     /// Copies `bytes` (any alignment) into owned aligned storage and validates it.
     fn from_bytes(bytes: &[u8]) -> Result<DsModel, Failure> {
-        let mut words = vec![0u64; bytes.len().div_ceil(size_of::<u64>())].into_boxed_slice();
-        // SAFETY: `words` holds at least `bytes.len()` initialised bytes, and every byte pattern
-        // is a valid u64; the two buffers are distinct allocations.
-        unsafe {
-            core::ptr::copy_nonoverlapping(
-                bytes.as_ptr(),
-                words.as_mut_ptr().cast::<u8>(),
-                bytes.len(),
-            )
-        };
-        let storage = Box::into_raw(words);
-        // SAFETY: `storage` is a live allocation of at least `bytes.len()` bytes that nothing
-        // else references; it is freed only by `Drop`, after the last use of `model`.
-        let view: &'static [u8] =
-            unsafe { core::slice::from_raw_parts(storage.cast::<u8>(), bytes.len()) };
-        match Model::from_bytes(view) {
+        let storage = Box::into_raw(Box::new(ModelBytes::copy_from(bytes)));
+        // SAFETY: `storage` is a live allocation that nothing else references and nothing
+        // writes; it is freed only by `Drop`, after the last use of `model`.
+        let view: &'static ModelBytes = unsafe { &*storage };
+        match view.model() {
             Ok(model) => Ok(DsModel { model, storage }),
             Err(e) => {
                 // SAFETY: from `Box::into_raw` above; `view` is not used after this.

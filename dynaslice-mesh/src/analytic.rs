@@ -1,7 +1,7 @@
 //! Exact signed distance fields for tests: geometry is checked against closed-form volumes and
 //! areas, which a trained network cannot give.
 
-use super::field::Source;
+use super::field::PointField;
 
 /// One analytic channel.
 #[derive(Debug, Clone, Copy)]
@@ -89,38 +89,16 @@ impl Analytic {
     }
 }
 
-impl Source for Analytic {
-    type Scratch = ();
-
-    fn scratch(&self) {}
-
+impl PointField for Analytic {
     fn num_classes(&self) -> usize {
         self.shapes.len()
     }
 
-    fn eval(&self, _: &mut (), xyz: &[[f32; 3]], t: f32, f: &mut [f32]) {
-        let k = self.shapes.len();
-        for (i, p) in xyz.iter().enumerate() {
-            for (c, s) in self.shapes.iter().enumerate() {
-                f[i * k + c] = s.eval(*p, t).0;
-            }
-        }
+    fn value(&self, class: usize, p: [f32; 3], t: f32) -> f32 {
+        self.shapes[class].eval(p, t).0
     }
 
-    fn eval_jacobian(
-        &self,
-        _: &mut (),
-        xyz: &[[f32; 3]],
-        t: f32,
-        f: &mut [f32],
-        grad: &mut [[f32; 3]],
-        dfdt: &mut [f32],
-    ) {
-        let k = self.shapes.len();
-        for (i, p) in xyz.iter().enumerate() {
-            for (c, s) in self.shapes.iter().enumerate() {
-                (f[i * k + c], grad[i * k + c], dfdt[i * k + c]) = s.eval(*p, t);
-            }
-        }
+    fn jet(&self, class: usize, p: [f32; 3], t: f32) -> (f32, [f32; 3], f32) {
+        self.shapes[class].eval(p, t)
     }
 }

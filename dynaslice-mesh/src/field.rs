@@ -6,7 +6,7 @@
 //!   Eq. 11 labels a point k, so adjacent classes share their boundary (f^k = f^j there).
 //!
 //! Either is then clipped to a box, F = max(F, b) with b the signed distance to the box, so a
-//! surface leaving the grid is closed by a cap instead of left open.
+//! surface leaving the lattice is closed by a cap instead of left open.
 
 use dynaslice_core::{Model, Scratch};
 use rayon::prelude::*;
@@ -34,6 +34,53 @@ pub trait Source: Sync {
         grad: &mut [[f32; 3]],
         dfdt: &mut [f32],
     );
+}
+
+/// A field known in closed form, one point and channel at a time: the synthetic benchmark's exact
+/// shapes, the analytic fields of tests. Every such field is a [`Source`] with no scratch.
+pub trait PointField: Sync {
+    /// K, the number of channels.
+    fn num_classes(&self) -> usize;
+    /// f of channel `class` at `p`, time `t`.
+    fn value(&self, class: usize, p: [f32; 3], t: f32) -> f32;
+    /// f, ∇ₓf and ∂f/∂t of channel `class` at `p`, time `t`.
+    fn jet(&self, class: usize, p: [f32; 3], t: f32) -> (f32, [f32; 3], f32);
+}
+
+impl<F: PointField> Source for F {
+    type Scratch = ();
+
+    fn scratch(&self) {}
+
+    fn num_classes(&self) -> usize {
+        PointField::num_classes(self)
+    }
+
+    fn eval(&self, _: &mut (), xyz: &[[f32; 3]], t: f32, f: &mut [f32]) {
+        let k = PointField::num_classes(self);
+        for (i, &p) in xyz.iter().enumerate() {
+            for c in 0..k {
+                f[i * k + c] = self.value(c, p, t);
+            }
+        }
+    }
+
+    fn eval_jacobian(
+        &self,
+        _: &mut (),
+        xyz: &[[f32; 3]],
+        t: f32,
+        f: &mut [f32],
+        grad: &mut [[f32; 3]],
+        dfdt: &mut [f32],
+    ) {
+        let k = PointField::num_classes(self);
+        for (i, &p) in xyz.iter().enumerate() {
+            for c in 0..k {
+                (f[i * k + c], grad[i * k + c], dfdt[i * k + c]) = self.jet(c, p, t);
+            }
+        }
+    }
 }
 
 /// A model's scratch and the per-point time column its batch functions read.

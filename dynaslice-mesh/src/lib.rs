@@ -3,7 +3,7 @@
 //!
 //! The pipeline, one file per step (method and measurements in `docs/meshing.md`):
 //! 1. [`field`]: the scalar field F per extracted class (own level set or Eq. 11 partition
-//!    boundary), clipped to the grid so that every surface closes.
+//!    boundary), clipped to the lattice so that every surface closes.
 //! 2. [`sampling`]: coarse-to-fine sampling of a lattice near the surfaces with the SDF distance
 //!    bound, then closure over sign-changing edges (watertightness).
 //! 3. [`polygonise`]: marching tetrahedra on the Kuhn subdivision (manifold, no ambiguities).
@@ -14,15 +14,15 @@
 mod analytic;
 pub mod field;
 pub mod geometry;
-pub mod grid;
 pub mod io;
+pub mod lattice;
 pub mod polygonise;
 pub mod sampling;
 pub mod vertices;
 
-pub use field::{LevelSets, Source, Surfaces};
+pub use field::{LevelSets, PointField, Source, Surfaces};
 pub use geometry::{Mesh, Topology};
-pub use grid::Grid;
+pub use lattice::Lattice;
 pub use sampling::Sampling;
 
 use anyhow::Result;
@@ -74,7 +74,7 @@ pub struct Extraction {
     /// One mesh per requested class.
     pub meshes: Vec<Mesh>,
     /// The lattice used.
-    pub grid: Grid,
+    pub lattice: Lattice,
     /// Evaluation counts.
     pub stats: Stats,
 }
@@ -88,7 +88,7 @@ pub fn extract<S: Source>(
     classes: &[usize],
     options: &Options,
 ) -> Result<Extraction> {
-    let grid = Grid::covering(bounds.0, bounds.1, options.resolution)?;
+    let lattice = Lattice::covering(bounds.0, bounds.1, options.resolution)?;
     if let Sampling::Sparse { safety } = options.sampling {
         anyhow::ensure!(
             safety.is_finite() && safety >= 1.0,
@@ -100,9 +100,9 @@ pub fn extract<S: Source>(
         time,
         classes.to_vec(),
         options.surfaces,
-        grid.clip_box(),
+        lattice.clip_box(),
     );
-    let samples = sampling::sample(&field, grid, options.sampling);
+    let samples = sampling::sample(&field, lattice, options.sampling);
     let mut jacobian_evaluations = 0;
     let meshes = (0..classes.len())
         .map(|c| {
@@ -113,7 +113,7 @@ pub fn extract<S: Source>(
                 c,
                 &mut positions,
                 options.newton_steps,
-                grid.h as f32,
+                lattice.h as f32,
             );
             jacobian_evaluations += positions.len() as u64 * (options.newton_steps as u64 + 1);
             Mesh {
@@ -126,11 +126,11 @@ pub fn extract<S: Source>(
         .collect();
     Ok(Extraction {
         meshes,
-        grid,
+        lattice,
         stats: Stats {
             value_evaluations: samples.evaluations(),
             jacobian_evaluations,
-            dense_evaluations: grid.vertex_count(),
+            dense_evaluations: lattice.vertex_count(),
             cells: samples.cells.len() as u64,
         },
     })
@@ -320,7 +320,7 @@ mod tests {
         let x = extract(&ball, CUBE, 0.0, &[0], &options(32)).unwrap();
         let m = &x.meshes[0];
         assert!(m.topology().is_closed_manifold(), "{:?}", m.topology());
-        let (_, hi) = x.grid.clip_box();
+        let (_, hi) = x.lattice.clip_box();
         assert!(m.positions.iter().all(|p| p[0] <= hi[0] + 1e-6));
         // The cap at x = hi: a disc of radius √(0.8² − (hi − 0.5)²).
         let cap = m

@@ -9,7 +9,7 @@
 //! lattice edge, shared by every triangle touching it. Triangles are oriented from exact integer
 //! arithmetic on the edge midpoints, with normals towards the positive (outside) side.
 
-use super::grid::{key, Grid};
+use super::lattice::{key, Lattice};
 use super::sampling::Samples;
 use rustc_hash::FxHashMap;
 
@@ -33,14 +33,14 @@ pub struct Polygons {
 
 /// Polygonises channel `channel` of `samples` over its cells.
 pub fn polygonise(samples: &Samples, channel: usize) -> Polygons {
-    let grid = samples.grid;
+    let lattice = samples.lattice;
     let mut out = Polygons {
         positions: Vec::new(),
         triangles: Vec::new(),
     };
     let mut vertex_of_edge: FxHashMap<u64, u32> = FxHashMap::default();
     for &cell in &samples.cells {
-        let base = super::grid::unkey(cell);
+        let base = super::lattice::unkey(cell);
         let corners: [[u32; 3]; 8] =
             std::array::from_fn(|o| std::array::from_fn(|a| base[a] + ((o >> a) & 1) as u32));
         let values: [f32; 8] = std::array::from_fn(|o| {
@@ -62,7 +62,7 @@ pub fn polygonise(samples: &Samples, channel: usize) -> Polygons {
                 let direction = (0..3).fold(0u64, |m, ax| m | ((pb[ax] - pa[ax]) as u64) << ax);
                 let edge_key = key(pa) << 3 | direction;
                 let index = *vertex_of_edge.entry(edge_key).or_insert_with(|| {
-                    out.positions.push(interpolate(&grid, pa, fa, pb, fb));
+                    out.positions.push(interpolate(&lattice, pa, fa, pb, fb));
                     out.positions.len() as u32 - 1
                 });
                 (
@@ -102,11 +102,11 @@ pub fn polygonise(samples: &Samples, channel: usize) -> Polygons {
 }
 
 /// Where the linear interpolant of (fa at a, fb at b) vanishes, in world coordinates.
-fn interpolate(grid: &Grid, a: [u32; 3], fa: f32, b: [u32; 3], fb: f32) -> [f32; 3] {
+fn interpolate(lattice: &Lattice, a: [u32; 3], fa: f32, b: [u32; 3], fb: f32) -> [f32; 3] {
     let s = fa as f64 / (fa as f64 - fb as f64);
     std::array::from_fn(|ax| {
         let x = a[ax] as f64 + s * (b[ax] as f64 - a[ax] as f64);
-        (grid.origin[ax] + x * grid.h) as f32
+        (lattice.origin[ax] + x * lattice.h) as f32
     })
 }
 

@@ -22,7 +22,7 @@
 //! comparison in the tests and `--dense` check.
 
 use super::field::{LevelSets, Source};
-use super::grid::{key, unkey, Grid};
+use super::lattice::{key, unkey, Lattice};
 use rustc_hash::{FxHashMap, FxHashSet};
 
 /// How the lattice is sampled.
@@ -40,7 +40,7 @@ pub enum Sampling {
 /// Field values at a sparse set of lattice vertices, and the cells to polygonise.
 pub struct Samples {
     /// The lattice.
-    pub grid: Grid,
+    pub lattice: Lattice,
     channels: usize,
     index: FxHashMap<u64, u32>,
     values: Vec<f32>,
@@ -66,7 +66,7 @@ impl Samples {
         keys.sort_unstable();
         keys.dedup();
         keys.retain(|k| !self.index.contains_key(k));
-        let points: Vec<[f32; 3]> = keys.iter().map(|&k| self.grid.point(unkey(k))).collect();
+        let points: Vec<[f32; 3]> = keys.iter().map(|&k| self.lattice.point(unkey(k))).collect();
         let values = field.par_values(&points);
         let first = self.index.len() as u32;
         self.index
@@ -87,10 +87,10 @@ fn corner(base: [u32; 3], o: usize, size: u32) -> [u32; 3] {
     std::array::from_fn(|a| base[a] + ((o >> a) & 1) as u32 * size)
 }
 
-/// Samples `field` on `grid` as `sampling` says.
-pub fn sample<S: Source>(field: &LevelSets<S>, grid: Grid, sampling: Sampling) -> Samples {
+/// Samples `field` on `lattice` as `sampling` says.
+pub fn sample<S: Source>(field: &LevelSets<S>, lattice: Lattice, sampling: Sampling) -> Samples {
     let mut samples = Samples {
-        grid,
+        lattice,
         channels: field.channels(),
         index: FxHashMap::default(),
         values: Vec::new(),
@@ -98,10 +98,12 @@ pub fn sample<S: Source>(field: &LevelSets<S>, grid: Grid, sampling: Sampling) -
     };
     let cells = match sampling {
         Sampling::Dense => {
-            let all: Vec<[u32; 3]> = lattice(grid.cells, 1).collect();
+            let all: Vec<[u32; 3]> = cell_bases(lattice.cells, 1).collect();
             samples.ensure(
                 field,
-                lattice(grid.cells.map(|c| c + 1), 1).map(key).collect(),
+                cell_bases(lattice.cells.map(|c| c + 1), 1)
+                    .map(key)
+                    .collect(),
             );
             all
         }
@@ -112,7 +114,7 @@ pub fn sample<S: Source>(field: &LevelSets<S>, grid: Grid, sampling: Sampling) -
 }
 
 /// Bases of the cells of side `size` covering `cells` lattice cells per axis.
-fn lattice(cells: [u32; 3], size: u32) -> impl Iterator<Item = [u32; 3]> {
+fn cell_bases(cells: [u32; 3], size: u32) -> impl Iterator<Item = [u32; 3]> {
     let n = cells.map(|c| c.div_ceil(size));
     (0..n[2]).flat_map(move |k| {
         (0..n[1]).flat_map(move |j| (0..n[0]).map(move |i| [i * size, j * size, k * size]))
@@ -121,8 +123,8 @@ fn lattice(cells: [u32; 3], size: u32) -> impl Iterator<Item = [u32; 3]> {
 
 /// The coarse-to-fine descent (module documentation); returns the kept single cells.
 fn refine<S: Source>(samples: &mut Samples, field: &LevelSets<S>, safety: f32) -> Vec<[u32; 3]> {
-    let grid = samples.grid;
-    let longest = grid.cells.iter().copied().max().unwrap_or(1);
+    let lattice = samples.lattice;
+    let longest = lattice.cells.iter().copied().max().unwrap_or(1);
     // Coarse cells of about 1/8 of the longest axis: below that the top level costs nothing,
     // above it most coarse cells would hold some surface and the bound would prune little.
     let levels = (longest / 8).max(1).ilog2();
@@ -131,13 +133,13 @@ fn refine<S: Source>(samples: &mut Samples, field: &LevelSets<S>, safety: f32) -
         cells
             .iter()
             .flat_map(|&b| (0..8).map(move |o| corner(b, o, size)))
-            .filter(|&v| grid.contains(v))
+            .filter(|&v| lattice.contains(v))
             .map(key)
             .collect()
     };
-    let mut cells: Vec<[u32; 3]> = lattice(grid.cells, size).collect();
+    let mut cells: Vec<[u32; 3]> = cell_bases(lattice.cells, size).collect();
     samples.ensure(field, corners_of(&cells, size));
-    let half_diagonal = 3f32.sqrt() / 2.0 * grid.h as f32;
+    let half_diagonal = 3f32.sqrt() / 2.0 * lattice.h as f32;
     while size > 1 {
         let bound = safety * field.lipschitz() * half_diagonal * size as f32;
         let half = size / 2;
@@ -146,13 +148,13 @@ fn refine<S: Source>(samples: &mut Samples, field: &LevelSets<S>, safety: f32) -
             for o in 0..8 {
                 let child = corner(b, o, half);
                 // Coarse cells overhang the lattice's far faces; their outer children are empty.
-                if (0..3).any(|a| child[a] >= grid.cells[a]) {
+                if (0..3).any(|a| child[a] >= lattice.cells[a]) {
                     continue;
                 }
                 // A shared corner off the lattice has no value: keep the child, it is checked
                 // again at the next level from its own corners.
                 let c = corner(b, o, size);
-                if !grid.contains(c) || samples.distance(c) <= bound {
+                if !lattice.contains(c) || samples.distance(c) <= bound {
                     children.push(child);
                 }
             }
@@ -190,7 +192,7 @@ pub(crate) const KUHN_EDGES: [(usize, usize); 19] = [
 /// Grows `cells` until every cell around a sign-changing Kuhn edge of a kept cell is kept
 /// (module documentation); returns the sorted keys.
 fn close<S: Source>(samples: &mut Samples, field: &LevelSets<S>, cells: Vec<[u32; 3]>) -> Vec<u64> {
-    let grid = samples.grid;
+    let lattice = samples.lattice;
     let channels = samples.channels;
     let mut kept = FxHashSet::default();
     let mut frontier = cells;
@@ -226,7 +228,7 @@ fn close<S: Source>(samples: &mut Samples, field: &LevelSets<S>, cells: Vec<[u32
                         continue;
                     }
                     let n = n.map(|x| x as u32);
-                    if (0..3).all(|a| n[a] < grid.cells[a]) && !kept.contains(&key(n)) {
+                    if (0..3).all(|a| n[a] < lattice.cells[a]) && !kept.contains(&key(n)) {
                         next.push(n);
                     }
                 }

@@ -17,11 +17,10 @@
 //! Nearest neighbours are exact, from `kiddo`'s immutable k-d tree: 30 000 queries against
 //! 30 000 points cost milliseconds, and its batch queries run on the rayon pool.
 
-use anyhow::{ensure, Context, Result};
+use anyhow::Result;
 use dynaslice_data::synth::Shape;
-use dynaslice_mesh::{self as mesh, Mesh, Source, Surfaces};
+use dynaslice_mesh::{self as mesh, Mesh, PointField, Surfaces};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
-use std::path::Path;
 
 /// Default samples per surface (the paper's protocol uses at least 30k).
 pub const DEFAULT_SAMPLES: usize = 30_000;
@@ -96,32 +95,7 @@ pub fn bounding_diagonal(mesh: &Mesh) -> f64 {
     (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
 }
 
-/// Reads an STL file (binary or ASCII) as a mesh.
-pub fn read_stl(path: &Path) -> Result<Mesh> {
-    let file = std::fs::File::open(path)
-        .with_context(|| format!("cannot open reference mesh {}", path.display()))?;
-    let stl = stl_io::read_stl(&mut std::io::BufReader::new(file))
-        .with_context(|| format!("{}: not a readable STL file", path.display()))?;
-    let positions: Vec<[f32; 3]> = stl.vertices.iter().map(|v| [v[0], v[1], v[2]]).collect();
-    ensure!(
-        positions.iter().flatten().all(|v| v.is_finite()),
-        "{}: a vertex is not finite",
-        path.display()
-    );
-    let triangles = stl
-        .faces
-        .iter()
-        .map(|f| f.vertices.map(|i| i as u32))
-        .collect::<Vec<_>>();
-    ensure!(!triangles.is_empty(), "{}: no triangles", path.display());
-    Ok(Mesh {
-        positions,
-        triangles,
-        ..Mesh::default()
-    })
-}
-
-/// The synthetic benchmark's exact shapes as a mesh [`Source`], to mesh the ground truth with
+/// The synthetic benchmark's exact shapes as a mesh source ([`PointField`]), to mesh the ground truth with
 /// the same extractor as the models. Gradients and ∂/∂t are central differences of the exact
 /// distance (step 10⁻⁶: exact to ~10⁻⁹ away from the medial axes, where no surface lies).
 pub struct ExactShape(pub Shape);
@@ -129,55 +103,34 @@ pub struct ExactShape(pub Shape);
 const STEP: f64 = 1e-6;
 
 impl ExactShape {
-    fn value(&self, class: usize, p: [f64; 3], t: f64) -> f64 {
+    fn at(&self, class: usize, p: [f64; 3], t: f64) -> f64 {
         self.0.sdf(class, p, t)
     }
 }
 
-impl Source for ExactShape {
-    type Scratch = ();
-
-    fn scratch(&self) {}
-
+impl PointField for ExactShape {
     fn num_classes(&self) -> usize {
         self.0.class_names().len()
     }
 
-    fn eval(&self, _: &mut (), xyz: &[[f32; 3]], t: f32, f: &mut [f32]) {
-        let k = self.num_classes();
-        for (i, p) in xyz.iter().enumerate() {
-            for c in 0..k {
-                f[i * k + c] = self.value(c, p.map(f64::from), f64::from(t)) as f32;
-            }
-        }
+    fn value(&self, class: usize, p: [f32; 3], t: f32) -> f32 {
+        self.at(class, p.map(f64::from), f64::from(t)) as f32
     }
 
-    fn eval_jacobian(
-        &self,
-        _: &mut (),
-        xyz: &[[f32; 3]],
-        t: f32,
-        f: &mut [f32],
-        grad: &mut [[f32; 3]],
-        dfdt: &mut [f32],
-    ) {
-        let k = self.num_classes();
-        let t = f64::from(t);
-        for (i, p) in xyz.iter().enumerate() {
-            let p = p.map(f64::from);
-            for c in 0..k {
-                let at = |d: [f64; 3]| self.value(c, [p[0] + d[0], p[1] + d[1], p[2] + d[2]], t);
-                let g: [f64; 3] = std::array::from_fn(|a| {
-                    let mut d = [0.0; 3];
-                    d[a] = STEP;
-                    (at(d) - at(d.map(|v| -v))) / (2.0 * STEP)
-                });
-                f[i * k + c] = self.value(c, p, t) as f32;
-                grad[i * k + c] = g.map(|v| v as f32);
-                dfdt[i * k + c] = ((self.value(c, p, t + STEP) - self.value(c, p, t - STEP))
-                    / (2.0 * STEP)) as f32;
-            }
-        }
+    fn jet(&self, class: usize, p: [f32; 3], t: f32) -> (f32, [f32; 3], f32) {
+        let (p, t) = (p.map(f64::from), f64::from(t));
+        let at = |d: [f64; 3]| self.at(class, [p[0] + d[0], p[1] + d[1], p[2] + d[2]], t);
+        let g: [f64; 3] = std::array::from_fn(|a| {
+            let mut d = [0.0; 3];
+            d[a] = STEP;
+            (at(d) - at(d.map(|v| -v))) / (2.0 * STEP)
+        });
+        let dfdt = (self.at(class, p, t + STEP) - self.at(class, p, t - STEP)) / (2.0 * STEP);
+        (
+            self.at(class, p, t) as f32,
+            g.map(|v| v as f32),
+            dfdt as f32,
+        )
     }
 }
 
@@ -205,6 +158,7 @@ pub fn truth_meshes(shape: Shape, t: f64, resolution: u32) -> Result<Vec<Mesh>> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use dynaslice_mesh::Source;
     use std::f64::consts::PI;
 
     /// Area-uniform points on a sphere (Archimedes: z uniform, angle uniform).
@@ -282,27 +236,5 @@ mod tests {
         s.eval_jacobian(&mut (), &[[0.5, 0.3, 0.2]], 0.4, &mut f, &mut g, &mut dt);
         let norm = g[0].iter().map(|v| v * v).sum::<f32>().sqrt();
         assert!((norm - 1.0).abs() < 1e-4, "{norm}");
-    }
-
-    #[test]
-    fn stl_reference_round_trip_and_errors() {
-        let dir = tempfile::tempdir().unwrap();
-        let meshes = truth_meshes(Shape::Blob, 0.0, 32).unwrap();
-        let path = dir.path().join("blob.stl");
-        dynaslice_mesh::io::write(&path, &meshes[0], dynaslice_mesh::io::Format::Stl, "blob")
-            .unwrap();
-        let back = read_stl(&path).unwrap();
-        assert_eq!(back.triangles.len(), meshes[0].triangles.len());
-        let rel = (back.enclosed_volume() / meshes[0].enclosed_volume() - 1.0).abs();
-        assert!(rel < 1e-6, "{rel}");
-        assert!((bounding_diagonal(&back) - bounding_diagonal(&meshes[0])).abs() < 1e-6);
-        let bad = dir.path().join("bad.stl");
-        std::fs::write(&bad, b"solid x\nfacet oops\n").unwrap();
-        let e = read_stl(&bad).unwrap_err().to_string();
-        assert!(e.contains("bad.stl"), "{e}");
-        let e = read_stl(&dir.path().join("none.stl"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("none.stl"), "{e}");
     }
 }

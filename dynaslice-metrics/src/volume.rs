@@ -78,7 +78,7 @@ impl VolumeCurve {
 mod tests {
     use super::*;
     use dynaslice_test_support::spheres::{self, Sphere};
-    use dynaslice_volume::{label_indices, LabelGrid};
+    use dynaslice_volume::{label_indices, VoxelGrid};
 
     /// Two overlapping spheres, one growing: mesh volumes against the closed forms (ball minus
     /// the half lens the partition gives away) and against counted label voxels.
@@ -93,7 +93,7 @@ mod tests {
         let times = [0.0, 1.0, 2.0];
         let curve = volume_curve(&model, &times, 96).unwrap();
         let (lo, hi) = model.domain().bounds();
-        let grid = LabelGrid::from_bounds(
+        let grid = VoxelGrid::from_bounds(
             lo.map(f64::from),
             hi.map(f64::from),
             [40.0 / 128.0; 3],

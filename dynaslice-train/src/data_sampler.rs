@@ -36,40 +36,6 @@ pub fn domain_for(seq: &Sequence) -> Domain {
     }
 }
 
-/// Δt of Eq. 4: the median spacing of the annotated timesteps in normalised time (1 for a
-/// single timestep, where the network's time input is then switched off by ω_t^max = 0).
-pub fn annotated_spacing(seq: &Sequence, domain: &Domain) -> Option<f64> {
-    let times: Vec<f64> = seq.frames().iter().map(|f| f.time).collect();
-    let mut gaps: Vec<f64> = times
-        .windows(2)
-        .map(|w| (w[1] - w[0]) / domain.time_span as f64)
-        .filter(|g| *g > 0.0)
-        .collect();
-    if gaps.is_empty() {
-        return None;
-    }
-    gaps.sort_by(f64::total_cmp);
-    Some(gaps[gaps.len() / 2])
-}
-
-/// The default c of ω_t^max = c·π/Δt (Eq. 4). Measured on the chambers (docs/training.md, "The
-/// temporal factor c"): at SIREN's ω₀ = 30, where ω_t starts in ±7.5, c = 0.2 (ω_t^max ≈ 5.7 with
-/// 10 annotated frames) beats both a looser bound (c = 0.3, which no longer binds) and tighter
-/// ones (0.1, 0.05 cut the motion). At the trainer's default ω₀ = 10, ω_t starts in ±2.5, below
-/// this bound, so it is a guard there.
-pub const DEFAULT_TEMPORAL_FACTOR: f32 = 0.2;
-
-/// ω_t^max of Eq. 4 for `seq` in `domain`: c·π/Δt with `factor` c; `f32::INFINITY` when
-/// temporal control is off (the "4D SIREN" ablation); 0 for a single timestep, where there is
-/// nothing to interpolate in time and the time input is switched off.
-pub fn temporal_bound(seq: &Sequence, domain: &Domain, factor: f32, control: bool) -> f32 {
-    match (control, annotated_spacing(seq, domain)) {
-        (false, _) => f32::INFINITY,
-        (true, Some(dt)) => factor * (std::f64::consts::PI / dt) as f32,
-        (true, None) => 0.0,
-    }
-}
-
 /// How many samples each step draws.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SampleCounts {
@@ -83,7 +49,7 @@ pub struct SampleCounts {
 
 impl Default for SampleCounts {
     /// 1024 contour and 1024 plane samples per class, 1024 space-time: in the measured sweep of
-    /// docs/training.md, four times the steps of the 4096-sample batch beat its larger batches
+    /// lab/notes/training.md, four times the steps of the 4096-sample batch beat its larger batches
     /// at equal wall time (chambers IoU 0.975 against 0.866 in 1.5 min).
     fn default() -> Self {
         SampleCounts {
@@ -263,8 +229,6 @@ impl Sampler for DataSampler {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::network::{Network, OMEGA_0};
-    use crate::trainer::TrainOptions;
     use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
 
     fn sampler() -> DataSampler {
@@ -282,40 +246,6 @@ mod tests {
             space: 16,
         };
         DataSampler::new(&seq, domain_for(&seq), counts)
-    }
-
-    /// The default c on the benchmark's sampling (10 of 37 frames annotated): at the trainer's
-    /// default ω₀ the bound leaves the initial network exactly the unbounded one (a guard, so
-    /// the default tables of docs/results.md do not depend on c), while at SIREN's ω₀ = 30 it
-    /// cuts ω_t's initial range, the setting where docs/training.md measures its gain.
-    #[test]
-    fn default_temporal_bound_binds_at_sirens_omega0_only() {
-        // The benchmark's frames (37, every 4th annotated); few, coarse planes suffice for Δt.
-        let bench = BenchmarkOptions {
-            planes: Some((1, 1)),
-            plane_resolution: 16,
-            volume_resolution: 8,
-            ..BenchmarkOptions::default()
-        };
-        let seq = slice_sequence(Shape::Blob, &bench).unwrap();
-        let bound = temporal_bound(&seq, &domain_for(&seq), DEFAULT_TEMPORAL_FACTOR, true);
-        let expected = DEFAULT_TEMPORAL_FACTOR * 9.0 * std::f32::consts::PI;
-        assert!(
-            (bound - expected).abs() < 1e-4,
-            "{bound} against {expected}"
-        );
-        let layout = dynaslice_core::Layout::new(&[32, 32], 1).unwrap();
-        let net =
-            |omega_0: f32, omega_t_max: f32| Network::siren(layout, omega_0, 0.2, omega_t_max, 7);
-        let default_omega_0 = TrainOptions::default().omega_0;
-        assert_eq!(
-            net(default_omega_0, bound).params,
-            net(default_omega_0, f32::INFINITY).params
-        );
-        let (bounded, free) = (net(OMEGA_0, bound), net(OMEGA_0, f32::INFINITY));
-        assert!(bounded.largest_omega_t() <= bound);
-        let free = free.largest_omega_t();
-        assert!(free > bound, "{free} ≤ {bound}");
     }
 
     /// Class weights scale exactly their class's contour and plane sample weights, change the

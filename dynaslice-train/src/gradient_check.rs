@@ -1,69 +1,36 @@
 //! The trainer's hand-written gradients against central differences of an independent f64
-//! implementation of the same loss (forward-mode dual numbers per point, straight from Eq. 1,
-//! 5–8), and the trainer's f and ∇ₓf against the core's evaluation of the exported model.
+//! implementation of the same loss (Eq. 5–8 on the f64 reference network of
+//! `dynaslice_test_support::reference`, whose ∇ₓf is carried by forward-mode tangents), and the
+//! trainer's f and ∇ₓf against the core's evaluation of the exported model.
 
 use super::loss::{ContourSample, LossWeights, PlaneSample};
 use super::network::Network;
 use super::objective::{Batch, Objective, SpaceTimeScheme};
 use super::passes::{Tangents, Workspace};
 use super::reverse_over_reverse::ReverseWorkspace;
-use dynaslice_core::{Domain, Layout, Model};
+use dynaslice_core::{Domain, Layout, ModelBytes};
+use dynaslice_test_support::reference::Reference;
 use proptest::prelude::*;
 
-/// f and ∇ₓf of every channel at one normalised input, in f64.
-fn reference_point(layout: &Layout, p: &[f64], x: [f64; 4]) -> (Vec<f64>, Vec<[f64; 3]>) {
-    let mut h: Vec<f64> = x.to_vec();
-    let mut hd: Vec<[f64; 3]> = (0..4)
-        .map(|i| std::array::from_fn(|d| if d == i { 1.0 } else { 0.0 }))
-        .collect();
-    for l in 0..layout.num_layers() {
-        let (fan_in, fan_out) = layout.layer_dims(l);
-        let off = layout.layer_offset(l);
-        let mut z = vec![0.0; fan_out];
-        let mut zd = vec![[0.0; 3]; fan_out];
-        for j in 0..fan_out {
-            z[j] = p[off + fan_in * fan_out + j];
-            for i in 0..fan_in {
-                let w = p[off + i * fan_out + j];
-                z[j] += w * h[i];
-                for d in 0..3 {
-                    zd[j][d] += w * hd[i][d];
-                }
-            }
-        }
-        if l < layout.num_sine_layers() {
-            h = z.iter().map(|v| v.sin()).collect();
-            hd = z
-                .iter()
-                .zip(&zd)
-                .map(|(v, g)| g.map(|gd| v.cos() * gd))
-                .collect();
-        } else {
-            h = z;
-            hd = zd;
-        }
-    }
-    (h, hd)
-}
-
-fn reference_loss(layout: &Layout, p: &[f64], b: &Batch, w: &LossWeights) -> f64 {
+/// The trainer's loss (Eq. 5–8) of `b` under the `reference` network, in f64.
+fn reference_loss(reference: &Reference, b: &Batch, w: &LossWeights) -> f64 {
     let wide = |x: [f32; 4]| x.map(|v| v as f64);
     let mut loss = 0.0;
     for ((x, s), normal) in b.contour_x.iter().zip(&b.contour).zip(&b.contour_normal) {
-        let (f, g) = reference_point(layout, p, wide(*x));
+        let (f, g) = reference.normalised(wide(*x));
         let c = s.class as usize;
         let dot: f64 = (0..3).map(|d| g[c][d] * normal[d] as f64).sum();
         loss += s.weight as f64 * (f[c].abs() + w.orientation as f64 * (-dot).max(0.0));
     }
     for (x, s) in b.plane_x.iter().zip(&b.plane) {
-        let (f, _) = reference_point(layout, p, wide(*x));
+        let (f, _) = reference.normalised(wide(*x));
         let r = f[s.class as usize] - s.target as f64;
         let r = if s.absent { r.min(0.0) } else { r };
         loss += s.weight as f64 * w.plane as f64 * r * r;
     }
     let n = b.space_x.len() as f64;
     for x in &b.space_x {
-        let (f, g) = reference_point(layout, p, wide(*x));
+        let (f, g) = reference.normalised(wide(*x));
         for (fc, gc) in f.iter().zip(&g) {
             let norm = (gc[0] * gc[0] + gc[1] * gc[1] + gc[2] * gc[2]).sqrt();
             loss += w.regulariser as f64 / n
@@ -141,18 +108,9 @@ proptest! {
     #[test]
     fn parameter_gradients_match_f64_central_differences((net, batch) in net_strategy(), lambdas in (0.0f32..2.0, 0.0f32..2.0, 0.1f32..2.0, 1.0f32..20.0)) {
         let weights = LossWeights { orientation: lambdas.0, plane: lambdas.1, regulariser: lambdas.2, alpha: lambdas.3 };
-        let p64: Vec<f64> = net.params.iter().map(|&v| v as f64).collect();
-        let l64 = reference_loss(&net.layout, &p64, &batch, &weights);
-        let h = 1e-6;
-        let mut numeric = vec![0.0; p64.len()];
-        for i in 0..p64.len() {
-            let mut q = p64.clone();
-            q[i] += h;
-            let plus = reference_loss(&net.layout, &q, &batch, &weights);
-            q[i] -= 2.0 * h;
-            let minus = reference_loss(&net.layout, &q, &batch, &weights);
-            numeric[i] = (plus - minus) / (2.0 * h);
-        }
+        let reference = Reference::unclamped(net.layout, &net.params);
+        let l64 = reference_loss(&reference, &batch, &weights);
+        let numeric = reference.parameter_gradient(1e-6, |r| reference_loss(r, &batch, &weights));
         let max = numeric.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for scheme in [SpaceTimeScheme::ForwardTangents, SpaceTimeScheme::ReverseOverReverse] {
             let mut objective = Objective::with_scheme(&net, 2, 16, scheme);
@@ -170,8 +128,8 @@ proptest! {
     #[test]
     fn trainer_outputs_match_the_core((net, batch) in net_strategy()) {
         let k = net.layout.num_classes();
-        let bytes = net.to_writer(Domain::IDENTITY, (0..k).map(|c| (format!("c{c}"), c as i32 + 1)).collect(), String::new()).to_bytes();
-        let model = Model::from_bytes(&bytes).unwrap();
+        let bytes = ModelBytes::copy_from(&net.to_writer(Domain::IDENTITY, (0..k).map(|c| (format!("c{c}"), c as i32 + 1)).collect(), String::new()).to_bytes());
+        let model = bytes.model().unwrap();
         let x = &batch.space_x;
         let n = x.len();
         let mut tangents = Workspace::new(&net, n, 3);

@@ -1,6 +1,7 @@
 //! DynaSlice's trainer: exact hand-written gradients of the DynaSlice loss (Eq. 5–8, 10) and Adam.
 //!
-//! - [`network`]: parameters in the core's layout, SIREN initialisation, ω_t clamp (Eq. 4).
+//! - [`network`]: parameters in the core's layout, SIREN initialisation.
+//! - [`temporal_bound`]: Eq. 4, the bound ω_t^max = c·π/Δt, its initialisation and projection.
 //! - [`passes`]: forward with spatial tangents and the matching backward pass.
 //! - [`reverse_over_reverse`]: the second scheme for ∇ₓf losses, cheaper for K ≤ 2.
 //! - [`loss`]: the loss terms and their gradients with respect to f and ∇ₓf.
@@ -10,7 +11,7 @@
 //! - [`adam`]: the optimiser; [`checkpoint`]: resumable state.
 //! - [`mod@bench`]: step throughput against the machine's sgemm peak.
 //! - [`trainer`]: the loop, with its schedule, time limit and checkpoints.
-//! - [`model_file`]: reading and writing model files.
+//! - [`model_file`]: a trained network's model file and the metadata it records.
 
 pub mod adam;
 pub mod bench;
@@ -25,6 +26,7 @@ pub mod passes;
 pub mod reverse_over_reverse;
 pub mod sampling;
 mod simd;
+pub mod temporal_bound;
 pub mod trainer;
 
 #[cfg(test)]

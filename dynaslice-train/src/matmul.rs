@@ -15,17 +15,25 @@ pub(crate) enum Op {
 }
 
 /// A row-major matrix view of `rows × cols` values.
+///
+/// Invariant, relied on by the unsafe call in [`matmul`]: `data` holds at least `rows · cols`
+/// values (and that product does not overflow). The fields are private to this module, so only
+/// [`Mat::new`], which checks it, makes a `Mat` elsewhere.
 #[derive(Clone, Copy)]
 pub(crate) struct Mat<'a> {
-    pub data: &'a [f32],
-    pub rows: usize,
-    pub cols: usize,
+    data: &'a [f32],
+    rows: usize,
+    cols: usize,
 }
 
 impl<'a> Mat<'a> {
+    /// The first `rows · cols` values of `data` as a `rows × cols` matrix.
+    ///
+    /// # Panics
+    /// If `data` is shorter: a caller's indexing bug, never bad input.
     pub(crate) fn new(data: &'a [f32], rows: usize, cols: usize) -> Mat<'a> {
         assert!(
-            data.len() >= rows * cols,
+            rows.checked_mul(cols).is_some_and(|n| data.len() >= n),
             "matrix view {rows}x{cols} over {} values",
             data.len()
         );
@@ -46,7 +54,11 @@ pub(crate) fn matmul(c: &mut [f32], accumulate: bool, a: Mat, a_op: Op, b: Mat, 
     let (m, k, a_rs, a_cs) = a.shape(a_op);
     let (k2, n, b_rs, b_cs) = b.shape(b_op);
     assert_eq!(k, k2, "inner dimensions differ");
-    assert!(c.len() >= m * n, "output {} < {m}x{n}", c.len());
+    assert!(
+        m.checked_mul(n).is_some_and(|mn| c.len() >= mn),
+        "output {} < {m}x{n}",
+        c.len()
+    );
     if m == 0 || n == 0 {
         return;
     }
@@ -56,8 +68,12 @@ pub(crate) fn matmul(c: &mut [f32], accumulate: bool, a: Mat, a_op: Op, b: Mat, 
         }
         return;
     }
-    // SAFETY: the asserts above guarantee that every index the strides reach lies inside the
-    // three slices: A spans (rows-1)·cols + cols values, B likewise, C m·n values.
+    // SAFETY: gemm reads op(A) (m × k) and op(B) (k × n) and writes C (m × n) through these
+    // strides only. Element (i, j) of a `Mat` is at i·cols + j < rows·cols, which its slice
+    // holds (the invariant `Mat::new` checks; the fields are private, so no `Mat` bypasses it),
+    // and element (i, j) of C is at i·n + j < m·n <= c.len() (asserted above). m, n, k >= 1
+    // here, so every `Mat`'s rows and cols are at most its slice's length: the strides fit in
+    // isize.
     unsafe {
         gemm::gemm(
             m,

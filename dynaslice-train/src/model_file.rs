@@ -1,36 +1,69 @@
-//! Reading and writing model files (and checkpoints) on disk.
+//! A trained network's model file: the network, its classes and domain, and the metadata every
+//! way of training records (the `dynaslice train` command and the lab's experiments alike).
 
-use anyhow::{Context, Result};
-use std::path::Path;
+use crate::data_sampler::SampleCounts;
+use crate::trainer::{Outcome, TrainOptions};
+use dynaslice_core::{Domain, Error, ModelBytes};
+use dynaslice_data::ClassInfo;
 
-/// Reads a model file into a buffer aligned for the core's zero-copy weights (8-byte words).
-pub fn read_model_bytes(path: &Path) -> Result<AlignedBytes> {
-    let raw =
-        std::fs::read(path).with_context(|| format!("cannot read model {}", path.display()))?;
-    Ok(AlignedBytes::copy_from(&raw))
+/// A training run's result with everything its model file records.
+pub struct TrainedModel<'a> {
+    /// What training produced.
+    pub outcome: &'a Outcome,
+    /// The world ↔ normalised map the network was trained in.
+    pub domain: Domain,
+    /// The trained classes, in channel order.
+    pub classes: &'a [ClassInfo],
+    /// The options it was trained with.
+    pub options: &'a TrainOptions,
+    /// Samples drawn per step.
+    pub counts: SampleCounts,
+    /// c of ω_t^max = c·π/Δt (Eq. 4), recorded even where temporal control was off.
+    pub temporal_factor: f32,
+    /// Per-class weights of the contour and plane terms, where given.
+    pub class_weights: Option<&'a [f32]>,
+    /// What was trained on, as `key = value` lines (`dynaslice train`: `input = PATH` and
+    /// `frames = A:B:STEP`).
+    pub input: &'a str,
 }
 
-/// Bytes stored in `u64` words so that they start 8-byte aligned.
-pub struct AlignedBytes {
-    words: Vec<u64>,
-    len: usize,
-}
-
-impl AlignedBytes {
-    /// Copies `bytes` into an aligned buffer.
-    pub fn copy_from(bytes: &[u8]) -> AlignedBytes {
-        let mut words = vec![0u64; bytes.len().div_ceil(8)];
-        bytemuck::cast_slice_mut::<u64, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
-        AlignedBytes {
-            words,
-            len: bytes.len(),
-        }
+impl TrainedModel<'_> {
+    /// The model file, in aligned storage ready for [`ModelBytes::model`].
+    pub fn to_bytes(&self) -> Result<ModelBytes, Error> {
+        let classes = self
+            .classes
+            .iter()
+            .map(|c| (c.name.clone(), c.label))
+            .collect();
+        let bytes = self
+            .outcome
+            .network
+            .to_writer(self.domain, classes, self.metadata())
+            .try_to_bytes()?;
+        Ok(ModelBytes::copy_from(&bytes))
     }
-}
 
-impl std::ops::Deref for AlignedBytes {
-    type Target = [u8];
-    fn deref(&self) -> &[u8] {
-        &bytemuck::cast_slice(&self.words)[..self.len]
+    /// The metadata `dynaslice info` prints: `key = value` lines, in a fixed order.
+    fn metadata(&self) -> String {
+        let c = self.counts;
+        let mut m = format!("trainer = dynaslice {}\n", env!("CARGO_PKG_VERSION"));
+        m += self.input;
+        m.push('\n');
+        m += &self.options.describe();
+        m += &format!(
+            "temporal_factor = {}\nsteps_done = {}\n",
+            self.temporal_factor, self.outcome.steps_done
+        );
+        m += &format!(
+            "samples = {} contour + {} plane per class, {} space-time\n",
+            c.contour_per_class, c.plane_per_class, c.space
+        );
+        if let Some(w) = self.class_weights {
+            m += &format!("class_weights = {w:?}\n");
+        }
+        if let Some(last) = self.outcome.history.last() {
+            m += &format!("final_loss = {}\n", last.2);
+        }
+        m
     }
 }

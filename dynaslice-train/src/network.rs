@@ -4,6 +4,7 @@
 //! so exporting a model is a copy, and the trainer's f and ∇ₓf can be checked against the
 //! core's evaluation of the exported file.
 
+use crate::temporal_bound;
 use dynaslice_core::format::{ModelWriter, WeightType};
 use dynaslice_core::{Domain, Layout};
 use rand::{Rng, SeedableRng};
@@ -11,7 +12,7 @@ use rand_pcg::Pcg64Mcg;
 
 /// SIREN's ω₀ (Sitzmann et al. 2020), the paper's initialisation: used by the gradient checks
 /// and the step benchmark. The trainer's default is ω₀ = 10 (`TrainOptions::default`, measured in
-/// docs/training.md).
+/// lab/notes/training.md).
 pub const OMEGA_0: f32 = 30.0;
 
 /// Layout, parameters and the temporal band limit of a network being trained.
@@ -39,7 +40,7 @@ impl Network {
     ///   and regions the data hardly reaches (the domain's corners, between frames) then drift to
     ///   either sign: a negative drift is a spurious structure that the losses near the data never
     ///   see. Starting outside makes "outside unless the data says otherwise" the default
-    ///   (docs/training.md measures it).
+    ///   (lab/notes/training.md measures it).
     pub fn siren(
         layout: Layout,
         omega_0: f32,
@@ -61,7 +62,7 @@ impl Network {
             };
             for i in 0..fan_in {
                 let b = if l == 0 && i == 3 {
-                    bound.min(omega_t_max)
+                    temporal_bound::initial_limit(bound, omega_t_max)
                 } else {
                     bound
                 };
@@ -96,11 +97,8 @@ impl Network {
 
     /// Projects ω_t back into [−ω_t^max, ω_t^max] (Eq. 4); called after every optimiser step.
     pub fn clamp_temporal_frequencies(&mut self) {
-        let m = self.omega_t_max;
         let range = self.omega_t_range();
-        self.params[range]
-            .iter_mut()
-            .for_each(|v| *v = v.clamp(-m, m));
+        temporal_bound::project(&mut self.params[range], self.omega_t_max);
     }
 
     /// The model file contents for this network.

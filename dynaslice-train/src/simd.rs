@@ -1,4 +1,5 @@
-//! Elementwise loops compiled three times (AVX-512, AVX2+FMA, baseline) and picked at run time.
+//! Elementwise loops compiled three times (AVX-512, AVX2+FMA, baseline) and picked at run time
+//! by [`dynaslice_core::cpu::Level`], the decision the core's batch kernels take too.
 //!
 //! The sine activations and their backward are a fifth of a training step when compiled for the
 //! x86-64 baseline (SSE2, 4 lanes); the same plain Rust compiled with AVX-512 enabled runs 16
@@ -27,6 +28,7 @@ macro_rules! multiversion {
             fn generic<$m: MulAdd>($($arg: $ty),*) $body
             #[cfg(target_arch = "x86_64")]
             {
+                use dynaslice_core::cpu::Level;
                 #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
                 fn avx512($($arg: $ty),*) {
                     generic::<Fused>($($arg),*)
@@ -35,13 +37,12 @@ macro_rules! multiversion {
                 fn avx2($($arg: $ty),*) {
                     generic::<Fused>($($arg),*)
                 }
-                if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512vl") {
-                    // SAFETY: the features it was compiled for were just detected.
-                    return unsafe { avx512($($arg),*) };
-                }
-                if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-                    // SAFETY: as above.
-                    return unsafe { avx2($($arg),*) };
+                match Level::detect() {
+                    // SAFETY: the token proves the CPU has every feature `avx512` enables.
+                    Level::Avx512(_) => return unsafe { avx512($($arg),*) },
+                    // SAFETY: the token proves the CPU has every feature `avx2` enables.
+                    Level::Avx2(_) => return unsafe { avx2($($arg),*) },
+                    Level::Portable => {}
                 }
             }
             generic::<Separate>($($arg),*)

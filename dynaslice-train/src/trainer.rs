@@ -49,7 +49,7 @@ pub struct TrainOptions {
     pub lr_final: f32,
     /// Steps over which the learning rate ramps up linearly before following the cosine
     /// (0: none). At ω₀ = 30 the first steps' full-size updates can flip large regions of a
-    /// channel inside; a short ramp prevents that (docs/training.md, "Learning-rate warm-up").
+    /// channel inside; a short ramp prevents that (lab/notes/training.md, "Learning-rate warm-up").
     pub warmup_steps: u64,
     /// Loss weights.
     pub loss: LossWeights,
@@ -66,7 +66,7 @@ pub struct TrainOptions {
 impl Default for TrainOptions {
     /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
     /// 3000 steps, ω₀ = 10, initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.2, α = 50, all threads,
-    /// no checkpoint; `omega_t_max` must be set from the data ([`super::data_sampler::temporal_bound`]).
+    /// no checkpoint; `omega_t_max` must be set from the data ([`crate::temporal_bound::temporal_bound`]).
     fn default() -> Self {
         TrainOptions {
             widths: vec![256; 4],
@@ -82,7 +82,7 @@ impl Default for TrainOptions {
             loss: LossWeights {
                 orientation: 0.1,
                 plane: 0.1,
-                // Measured (docs/training.md): 0.05 let real data and the thin tube overfit
+                // Measured (lab/notes/training.md): 0.05 let real data and the thin tube overfit
                 // between planes; 0.2 is better on both.
                 regulariser: 0.2,
                 alpha: 50.0,

@@ -1,14 +1,15 @@
 //! Label volumes: a model's Eq. 11 labels (argmin over (0, f¹, …, f^K), background 0) on a
-//! voxel grid ([`grid`]), at one or more times, written frame by frame as NIfTI-1
-//! (`dynaslice_data::nifti_stream`) with each class's source label value. `dynaslice labels` is the command.
+//! voxel grid ([`voxel_grid`]), at one or more times, written frame by frame as NIfTI-1
+//! (`dynaslice_data::nifti_stream`) with each class's source label value. `dynaslice labels` is
+//! the command.
 //!
 //! Memory is bounded by one frame: a frame's labels are computed (in parallel over z-slices),
 //! counted, encoded and written before the next frame is started.
 
-pub mod grid;
+pub mod voxel_grid;
 
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
-pub use grid::LabelGrid;
+pub use voxel_grid::VoxelGrid;
 
 use anyhow::{bail, Result};
 use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
@@ -45,7 +46,7 @@ pub fn source_labels(model: &Model) -> Result<Vec<i32>> {
 
 /// The Eq. 11 label indices (0..=K, not source values) of every voxel of `grid` at world time
 /// `t`, x fastest, into `out`. An error if the model is not finite at some voxel.
-pub fn label_indices(model: &Model, grid: &LabelGrid, t: f64, out: &mut [u32]) -> Result<()> {
+pub fn label_indices(model: &Model, grid: &VoxelGrid, t: f64, out: &mut [u32]) -> Result<()> {
     let [nx, ny, _] = grid.dims;
     assert_eq!(out.len(), grid.voxels_per_frame(), "one label per voxel");
     out.par_chunks_mut(nx * ny).enumerate().try_for_each_init(
@@ -79,7 +80,7 @@ pub fn label_indices(model: &Model, grid: &LabelGrid, t: f64, out: &mut [u32]) -
 /// (0 = background, k = class k) per frame.
 pub fn write_volume(
     model: &Model,
-    grid: &LabelGrid,
+    grid: &VoxelGrid,
     path: &Path,
     mut on_frame: impl FnMut(usize),
 ) -> Result<Vec<Vec<u64>>> {
@@ -93,6 +94,7 @@ pub fn write_volume(
         frame_interval: grid.frame_interval()?,
         time_offset: grid.times[0],
         label_range: (lo, hi),
+        description: "dynaslice labels (Eq. 11 argmin)".into(),
     };
     let mut stream = NiftiStream::create(path, &header)?;
     let n = grid.voxels_per_frame();
@@ -118,6 +120,7 @@ pub fn write_volume(
 mod tests {
     use super::*;
     use dynaslice_data::nifti::read_volume;
+    use dynaslice_data::TimeSeries;
     use dynaslice_test_support::spheres::Sphere;
 
     /// Through the whole pipeline, on two overlapping spheres whose Eq. 11 labels are known in
@@ -132,9 +135,9 @@ mod tests {
             dynaslice_test_support::spheres::model(&spheres, &[("ball", 3), ("small", 500)]);
         let model = Model::from_bytes(&bytes).unwrap();
         let (lo, hi) = model.domain().bounds();
-        let times = grid::parse_times("0:2:3").unwrap();
+        let times = "0:2:3".parse::<TimeSeries>().unwrap().times();
         let grid =
-            LabelGrid::from_bounds(lo.map(f64::from), hi.map(f64::from), [1.7; 3], times).unwrap();
+            VoxelGrid::from_bounds(lo.map(f64::from), hi.map(f64::from), [1.7; 3], times).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("labels.nii.gz");
         let mut seen = Vec::new();

@@ -10,7 +10,7 @@
 //!    checked: a hostile but finite model may overflow to ±∞ and NaN, which is allowed.
 
 use dynaslice_core::format::ModelWriter;
-use dynaslice_core::{crc32, Model, Scratch, UNDEFINED_LABEL};
+use dynaslice_core::{crc32, Model, ModelBytes, Scratch, UNDEFINED_LABEL};
 use std::cell::RefCell;
 
 thread_local! {
@@ -27,16 +27,12 @@ pub fn fix_crc(bytes: &mut [u8]) {
     }
 }
 
-/// Runs checks 1–3 on `bytes`, placed at a 64-byte aligned address first: libFuzzer's buffers
-/// are heap copies with no alignment promise, and `from_bytes` rightly refuses misaligned
-/// weights, which would hide every deeper check behind `Error::Misaligned`.
+/// Runs checks 1–3 on `bytes`, copied to aligned storage first: libFuzzer's buffers are heap
+/// copies with no alignment promise, and `from_bytes` rightly refuses misaligned weights, which
+/// would hide every deeper check behind `Error::Misaligned`.
 pub fn check(bytes: &[u8]) {
-    let mut buf = vec![0u8; bytes.len() + 64];
-    let start = buf.as_ptr().align_offset(64);
-    buf[start..start + bytes.len()].copy_from_slice(bytes);
-    let aligned = &buf[start..start + bytes.len()];
-
-    let Ok(model) = Model::from_bytes(aligned) else {
+    let aligned = ModelBytes::copy_from(bytes);
+    let Ok(model) = aligned.model() else {
         return;
     };
     let rewritten = ModelWriter::from_model(&model).try_to_bytes();

@@ -15,7 +15,8 @@ use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
 use dynaslice_data::LabelNames;
 use dynaslice_metrics::benchmark::Resolution;
 use dynaslice_metrics::heldout::Split;
-use dynaslice_train::data_sampler::{SampleCounts, DEFAULT_TEMPORAL_FACTOR};
+use dynaslice_train::data_sampler::SampleCounts;
+use dynaslice_train::temporal_bound::DEFAULT_TEMPORAL_FACTOR;
 use dynaslice_train::trainer::TrainOptions;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -189,7 +190,7 @@ pub fn run(a: Args) -> Result<()> {
         },
         temporal_factor: a.temporal_factor,
     };
-    let command = std::iter::once("dynaslice".to_string())
+    let command = std::iter::once("dynaslice-lab".to_string())
         .chain(std::env::args().skip(1))
         .collect::<Vec<_>>()
         .join(" ");

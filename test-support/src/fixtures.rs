@@ -1,7 +1,42 @@
-//! Input fixtures and process helpers of the command-line tests.
+//! Input fixtures and process helpers of the reader and command-line tests: .csl files
+//! ([`csl_file`] and its plane records), the ball .csl sequence, [`succeeded`], and the shared
+//! data beside the repository ([`shared_data`]).
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
+
+/// A .csl file (the CSLC text format of `dynaslice_data::csl`): the header, with the plane count
+/// and `labels` (the label count, informational), then the records of `planes`, each ending in
+/// a newline and a blank line where another follows.
+pub fn csl_file<S: AsRef<str>>(labels: usize, planes: &[S]) -> String {
+    let records: String = planes.iter().map(AsRef::as_ref).collect();
+    format!("CSLC\n{} {labels}\n\n{records}", planes.len())
+}
+
+/// Plane 1 of a .csl file, z = 0 (normal (0, 0, 1), D = 0): a 4×4 square of label 1 with a 2×2
+/// square hole, labelled 2 (the single-object convention); a blank line ends it.
+pub const SQUARE_WITH_HOLE_PLANE: &str = "1 8 2 0 0 1 0
+
+0 0 0
+4 0 0
+4 4 0
+0 4 0
+1 1 0
+3 1 0
+3 3 0
+1 3 0
+4 1 0 1 2 3
+4h0 2 4 7 6 5
+
+";
+
+/// Plane 2 of a .csl file, z = 1 (D = −1): a triangle of label 7.
+pub const TRIANGLE_PLANE: &str = "2 3 1 0 0 1 -1
+0 0 1
+1 0 1
+0 1 1
+3 7 0 1 2
+";
 
 /// A sphere of radius r(t) = 10 + 2t mm cut by 5 z-planes, at times 0, 1, 2 (s), as a .csl
 /// manifest with one file per timestep (counter-clockwise circles, label 1).
@@ -10,22 +45,26 @@ pub fn write_sequence(dir: &Path) -> PathBuf {
     for (i, t) in [0.0f64, 1.0, 2.0].iter().enumerate() {
         let r = 10.0 + 2.0 * t;
         let zs = [-6.0f64, -3.0, 0.0, 3.0, 6.0];
-        let mut csl = format!("CSLC\n{} 1\n\n", zs.len());
-        for (p, z) in zs.iter().enumerate() {
-            let rc = (r * r - z * z).sqrt();
-            let n = 48;
-            csl += &format!("{} {n} 1 0 0 1 {}\n\n", p + 1, -z);
-            for j in 0..n {
-                let a = std::f64::consts::TAU * j as f64 / n as f64;
-                csl += &format!("{} {} {z}\n", rc * a.cos(), rc * a.sin());
-            }
-            csl += &format!(
-                "\n{n} 1 {}\n\n",
-                (0..n).map(|j| j.to_string()).collect::<Vec<_>>().join(" ")
-            );
-        }
+        let planes: Vec<String> = zs
+            .iter()
+            .enumerate()
+            .map(|(p, z)| {
+                let rc = (r * r - z * z).sqrt();
+                let n = 48;
+                let mut plane = format!("{} {n} 1 0 0 1 {}\n\n", p + 1, -z);
+                for j in 0..n {
+                    let a = std::f64::consts::TAU * j as f64 / n as f64;
+                    plane += &format!("{} {} {z}\n", rc * a.cos(), rc * a.sin());
+                }
+                plane += &format!(
+                    "\n{n} 1 {}\n\n",
+                    (0..n).map(|j| j.to_string()).collect::<Vec<_>>().join(" ")
+                );
+                plane
+            })
+            .collect();
         let name = format!("ball_{i}.csl");
-        std::fs::write(dir.join(&name), csl).unwrap();
+        std::fs::write(dir.join(&name), csl_file(1, &planes)).unwrap();
         manifest += &format!("{t} {name}\n");
     }
     let path = dir.join("ball.cslseq");
@@ -42,4 +81,18 @@ pub fn succeeded(out: &Output) -> String {
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// `rel` under the shared data directory beside the repository (`../shared/data`), or `None`,
+/// with a notice that the test skips, where it is absent.
+pub fn shared_data(rel: &str) -> Option<PathBuf> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data")
+        .join(rel);
+    if path.exists() {
+        Some(path)
+    } else {
+        println!("skipped: {} is absent", path.display());
+        None
+    }
 }

@@ -1,8 +1,8 @@
 //! Exact 2D geometry on a cross-section plane: polygons and their orientation convention
-//! ([`polygon`]), a bucket grid over segments ([`grid`]), the exact signed distance with
+//! ([`polygon`]), a bucket grid over segments ([`bucket_grid`]), the exact signed distance with
 //! outward normals ([`sdf`]), and contour extraction from sampled fields ([`marching_squares`]).
 
-pub mod grid;
+pub mod bucket_grid;
 pub mod marching_squares;
 pub mod polygon;
 pub mod sdf;

@@ -7,7 +7,7 @@
 //! direction (dx, dy) is then (dy, −dx)/len, and the sign of the distance near a vertex follows
 //! from the two adjacent edge normals (see [`super::sdf`]).
 
-use super::grid::BucketGrid;
+use super::bucket_grid::BucketGrid;
 
 /// A point in plane coordinates (u, v).
 pub type Point2 = [f64; 2];

@@ -17,7 +17,7 @@
 //! nearest point is a vertex, the side of the sum of the two adjacent edge normals (the 2D
 //! angle-weighted pseudo-normal, Bærentzen & Aanæs 2005), which is exact for closest points.
 
-use super::grid::BucketGrid;
+use super::bucket_grid::BucketGrid;
 use super::polygon::{Point2, Polygon};
 
 #[derive(Debug, Clone, Copy)]

@@ -14,6 +14,8 @@ pub mod pvd;
 mod stl;
 mod vtp;
 
+pub use stl::read_stl;
+
 use super::Mesh;
 use anyhow::{bail, Context, Result};
 use dynaslice_data::atomic::write_atomically;

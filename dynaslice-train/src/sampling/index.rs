@@ -92,11 +92,6 @@ impl SamplingIndex {
         }
     }
 
-    /// Number of classes.
-    pub fn class_count(&self) -> usize {
-        self.classes.len()
-    }
-
     /// The exact in-plane signed distance of class `class` at plane coordinates `p` on plane
     /// `plane` (planes numbered in sequence order, timestep by timestep), or `None` if that
     /// plane does not outline the class.

@@ -3,7 +3,7 @@
 //! Build a [`SamplingIndex`] once per [`dynaslice_data::Sequence`], keep one batch of each kind, and
 //! refill them every step:
 //! ```
-//! # use crate::sampling::*;
+//! # use dynaslice_train::sampling::*;
 //! # fn demo(seq: &dynaslice_data::Sequence, step: u64) {
 //! let index = SamplingIndex::new(seq);
 //! let (mut contour, mut plane, mut space) = (ContourBatch::default(), PlaneBatch::default(),

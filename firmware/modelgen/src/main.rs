@@ -13,7 +13,7 @@
 mod transcript;
 
 use dynaslice_core::format::{ModelWriter, WeightType};
-use dynaslice_core::{Domain, Model};
+use dynaslice_core::{Domain, ModelBytes};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::process::ExitCode;
@@ -49,15 +49,6 @@ fn writer(weight_type: WeightType) -> ModelWriter {
     w
 }
 
-/// A copy of `bytes` at a 64-byte aligned address, as `Model::from_bytes` reads weights in place
-/// and a `Vec<u8>` only promises 1-byte alignment.
-fn aligned(bytes: &[u8]) -> (Vec<u8>, usize) {
-    let mut buf = vec![0u8; bytes.len() + 64];
-    let start = buf.as_ptr().align_offset(64);
-    buf[start..start + bytes.len()].copy_from_slice(bytes);
-    (buf, start)
-}
-
 fn main() -> ExitCode {
     let Some(out_dir) = std::env::args().nth(1) else {
         eprintln!("usage: dynaslice-modelgen OUT_DIR");
@@ -74,16 +65,13 @@ fn main() -> ExitCode {
 
 fn run(out_dir: &Path) -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(out_dir)?;
+    // Aligned copies: `Model::from_bytes` reads the weights in place.
     let files = [
         ("model_f32.dsm", writer(WeightType::F32).try_to_bytes()?),
         ("model_f16.dsm", writer(WeightType::F16).try_to_bytes()?),
-    ];
-    let copies: Vec<(Vec<u8>, usize)> = files.iter().map(|(_, b)| aligned(b)).collect();
-    let views: Vec<&[u8]> = copies
-        .iter()
-        .zip(&files)
-        .map(|((buf, start), (_, b))| &buf[*start..*start + b.len()])
-        .collect();
+    ]
+    .map(|(name, bytes)| (name, ModelBytes::copy_from(&bytes)));
+    let views: Vec<&[u8]> = files.iter().map(|(_, b)| b.as_bytes()).collect();
 
     let k = CLASSES.len();
     let mut words = vec![0u32; views.len() * transcript::words_per_model(k)];
@@ -106,7 +94,7 @@ fn run(out_dir: &Path) -> Result<(), Box<dyn std::error::Error>> {
     }
     header.push_str("};\n");
 
-    let model = Model::from_bytes(views[0])?;
+    let model = files[0].1.model()?;
     let layout = model.layout();
     let mut info = String::new();
     writeln!(info, "widths {:?}, K = {k}", layout.widths())?;
@@ -121,7 +109,7 @@ fn run(out_dir: &Path) -> Result<(), Box<dyn std::error::Error>> {
     writeln!(info, "transcript words {n}")?;
 
     for (name, bytes) in &files {
-        std::fs::write(out_dir.join(name), bytes)?;
+        std::fs::write(out_dir.join(name), bytes.as_bytes())?;
     }
     std::fs::write(out_dir.join("expected.txt"), txt)?;
     std::fs::write(out_dir.join("expected.h"), header)?;

@@ -1,4 +1,4 @@
-//! The paper's experiments, reproduced (`dynaslice results`, written to docs/results.md).
+//! The paper's experiments, reproduced (`dynaslice-lab results`, written to lab/results/results.md).
 //!
 //! - [`synthetic`]: Table 3's layout on the synthetic benchmark: 4D SIREN, + orientation and
 //!   full DynaSlice, scored by 3D IoU and Chamfer distance against the exact shapes.
@@ -14,10 +14,11 @@ pub mod reference;
 pub mod synthetic;
 
 use anyhow::{anyhow, Result};
-use dynaslice_core::Model;
+use dynaslice_core::{Model, ModelBytes};
 use dynaslice_data::Sequence;
-use dynaslice_train::data_sampler::{domain_for, temporal_bound, DataSampler, SampleCounts};
-use dynaslice_train::model_file::AlignedBytes;
+use dynaslice_train::data_sampler::{domain_for, DataSampler, SampleCounts};
+use dynaslice_train::model_file::TrainedModel;
+use dynaslice_train::temporal_bound::temporal_bound;
 use dynaslice_train::trainer::{train, TrainOptions};
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -84,7 +85,7 @@ impl Protocol {
 /// A trained model and what it cost.
 pub struct Fitted {
     /// The model file.
-    pub bytes: AlignedBytes,
+    pub bytes: ModelBytes,
     /// Steps completed.
     pub steps: u64,
     /// Training wall time.
@@ -94,29 +95,31 @@ pub struct Fitted {
 impl Fitted {
     /// The model (validated when it was made).
     pub fn model(&self) -> Model<'_> {
-        Model::from_bytes(&self.bytes).expect("validated by fit")
+        self.bytes.model().expect("validated by fit")
     }
 }
 
-/// Trains a model of `seq` with `options` and `counts`, in `seq`'s own domain.
-pub fn fit(seq: &Sequence, options: &TrainOptions, counts: SampleCounts) -> Result<Fitted> {
+/// Trains a model of `seq` with `options` and `p`'s sample counts, in `seq`'s own domain. Its
+/// metadata is `dynaslice train`'s, with `input` (`key = value` lines) saying what `seq` is.
+pub fn fit(p: &Protocol, seq: &Sequence, options: &TrainOptions, input: &str) -> Result<Fitted> {
     let domain = domain_for(seq);
-    let mut sampler = DataSampler::new(seq, domain, counts);
+    let mut sampler = DataSampler::new(seq, domain, p.counts);
     let outcome = train(options, seq.classes().len(), &mut sampler, |_| {
         ControlFlow::Continue(())
     })?;
-    let classes = seq
-        .classes()
-        .iter()
-        .map(|c| (c.name.clone(), c.label))
-        .collect();
-    let bytes = outcome
-        .network
-        .to_writer(domain, classes, options.describe())
-        .try_to_bytes()
-        .map_err(|e| anyhow!("model: {e}"))?;
-    let bytes = AlignedBytes::copy_from(&bytes);
-    Model::from_bytes(&bytes).map_err(|e| anyhow!("model: {e}"))?;
+    let bytes = TrainedModel {
+        outcome: &outcome,
+        domain,
+        classes: seq.classes(),
+        options,
+        counts: p.counts,
+        temporal_factor: p.temporal_factor,
+        class_weights: None,
+        input,
+    }
+    .to_bytes()
+    .map_err(|e| anyhow!("model: {e}"))?;
+    bytes.model().map_err(|e| anyhow!("model: {e}"))?;
     Ok(Fitted {
         bytes,
         steps: outcome.steps_done,

@@ -8,7 +8,7 @@
 //! independent models together cost about K times the steps of the shared one. Each one-class
 //! model sees exactly the planes that annotate its class, as the shared model does. Every way
 //! of sharing runs from the same seeds; the table shows means over them, because one seed can
-//! collapse a class (docs/training.md measures it on the real CT case).
+//! collapse a class (lab/notes/training.md measures it on the real CT case).
 
 use super::{cell, fit, Protocol};
 use anyhow::{Context, Result};
@@ -98,6 +98,7 @@ impl Case {
     /// Trains and scores one way of sharing from `seed`, `steps` steps per model.
     pub fn run(&self, sharing: Sharing, seed: u64, p: &Protocol, steps: u64) -> Result<SharingRun> {
         let train = self.split.training(&self.seq)?;
+        let input = format!("input = {}, training split", self.source);
         let options = |seq: &Sequence, temporal_control: bool| TrainOptions {
             seed,
             ..p.options(seq, steps, temporal_control, true)
@@ -110,7 +111,8 @@ impl Case {
                     let one = train
                         .only_class(c)
                         .with_context(|| format!("{}: class {}", self.name, c + 1))?;
-                    let fitted = fit(&one, &options(&one, true), p.counts)?;
+                    let input = format!("{input}, class {} alone", c + 1);
+                    let fitted = fit(p, &one, &options(&one, true), &input)?;
                     seconds += fitted.seconds;
                     let h =
                         held_out_class(&fitted.model(), &self.seq, c, &self.split, self.pixels)?;
@@ -120,7 +122,7 @@ impl Case {
             }
             Sharing::Shared | Sharing::SharedNoTemporal => {
                 let control = sharing == Sharing::Shared;
-                let fitted = fit(&train, &options(&train, control), p.counts)?;
+                let fitted = fit(p, &train, &options(&train, control), &input)?;
                 let h = held_out(&fitted.model(), &self.seq, &self.split, self.pixels)?;
                 (per_class(&h), fitted.seconds)
             }

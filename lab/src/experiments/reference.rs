@@ -6,8 +6,9 @@
 use super::{cell, fit, Fitted, Protocol};
 use anyhow::{Context, Result};
 use dynaslice_data::{csl, LabelNames, Sequence};
+use dynaslice_mesh::io::read_stl;
 use dynaslice_mesh::{self as mesh, Mesh, Surfaces};
-use dynaslice_metrics::chamfer::{self, bounding_diagonal, read_stl};
+use dynaslice_metrics::chamfer::{self, bounding_diagonal};
 use dynaslice_metrics::inside::{grid_for, model_iou, padded_bounds};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -73,9 +74,10 @@ impl Case {
             "the IoU grid needs at least 1 cell and the Chamfer distance at least 1 sample"
         );
         let fitted = fit(
+            p,
             &self.seq,
             &p.options(&self.seq, steps, true, true),
-            p.counts,
+            &format!("input = {}", self.csl.display()),
         )
         .with_context(|| self.csl.display().to_string())?;
         let model = fitted.model();

@@ -100,7 +100,11 @@ impl Scene {
             variant.orientation(),
         );
         options.seed = seed;
-        let fitted = fit(&self.seq, &options, p.counts)?;
+        let input = format!(
+            "input = dynaslice synth --shape {}, its annotated frames",
+            self.shape.name()
+        );
+        let fitted = fit(p, &self.seq, &options, &input)?;
         let scores = self.truth.score(&fitted.model())?;
         Ok(Run {
             shape: self.shape,

@@ -15,7 +15,7 @@ pub const MAX_RESOLUTION: u32 = 1 << 16;
 
 /// A lattice of cubic cells in world coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Grid {
+pub struct Lattice {
     /// World position of vertex [0, 0, 0].
     pub origin: [f64; 3],
     /// Cell side in world units.
@@ -24,10 +24,10 @@ pub struct Grid {
     pub cells: [u32; 3],
 }
 
-impl Grid {
+impl Lattice {
     /// Cubic cells with `resolution` cells along the longest side of the box `lo..hi`; the other
     /// axes get the whole number of cells that covers them, centred on the box.
-    pub fn covering(lo: [f32; 3], hi: [f32; 3], resolution: u32) -> Result<Grid> {
+    pub fn covering(lo: [f32; 3], hi: [f32; 3], resolution: u32) -> Result<Lattice> {
         ensure!(
             (2..=MAX_RESOLUTION).contains(&resolution),
             "resolution {resolution} is outside 2..={MAX_RESOLUTION}"
@@ -44,10 +44,10 @@ impl Grid {
         let origin = std::array::from_fn(|a| {
             (lo[a] as f64 + hi[a] as f64) / 2.0 - cells[a] as f64 * h / 2.0
         });
-        Ok(Grid { origin, h, cells })
+        Ok(Lattice { origin, h, cells })
     }
 
-    /// Number of lattice vertices: what a dense evaluation of this grid costs.
+    /// Number of lattice vertices: what a dense evaluation of this lattice costs.
     pub fn vertex_count(&self) -> u64 {
         self.cells.iter().map(|&c| c as u64 + 1).product()
     }
@@ -58,7 +58,7 @@ impl Grid {
         std::array::from_fn(|a| (self.origin[a] + v[a] as f64 * self.h) as f32)
     }
 
-    /// World box that the extracted surfaces are clipped to: the grid inset by half a cell, so
+    /// World box that the extracted surfaces are clipped to: the lattice inset by half a cell, so
     /// the outermost lattice vertices are always strictly outside and every surface closes.
     pub fn clip_box(&self) -> ([f32; 3], [f32; 3]) {
         let lo = std::array::from_fn(|a| (self.origin[a] + self.h / 2.0) as f32);
@@ -68,7 +68,7 @@ impl Grid {
         (lo, hi)
     }
 
-    /// True when `v` is a vertex of this grid.
+    /// True when `v` is a vertex of this lattice.
     #[inline]
     pub fn contains(&self, v: [u32; 3]) -> bool {
         (0..3).all(|a| v[a] <= self.cells[a])
@@ -98,14 +98,14 @@ mod tests {
 
     #[test]
     fn covers_the_box_with_cubic_cells_centred() {
-        let g = Grid::covering([-2.0, -1.0, 0.0], [2.0, 1.0, 0.5], 8).unwrap();
+        let g = Lattice::covering([-2.0, -1.0, 0.0], [2.0, 1.0, 0.5], 8).unwrap();
         assert_eq!(g.h, 0.5);
         assert_eq!(g.cells, [8, 4, 1]);
         assert_eq!(g.point([0, 0, 0]), [-2.0, -1.0, 0.0]);
         assert_eq!(g.point([8, 4, 1]), [2.0, 1.0, 0.5]);
         assert_eq!(g.vertex_count(), 9 * 5 * 2);
         // An axis that is not a whole number of cells is rounded up and centred.
-        let g = Grid::covering([0.0; 3], [1.0, 0.3, 1.0], 4).unwrap();
+        let g = Lattice::covering([0.0; 3], [1.0, 0.3, 1.0], 4).unwrap();
         assert_eq!(g.cells, [4, 2, 4]);
         assert!((g.origin[1] - (0.15 - 0.25)).abs() < 1e-7);
         let (lo, hi) = g.clip_box();
@@ -113,12 +113,12 @@ mod tests {
     }
 
     #[test]
-    fn keys_round_trip_and_bad_grids_are_refused() {
+    fn keys_round_trip_and_bad_lattices_are_refused() {
         for v in [[0, 0, 0], [1, 2, 3], [MAX_RESOLUTION; 3]] {
             assert_eq!(unkey(key(v)), v);
         }
-        assert!(Grid::covering([0.0; 3], [1.0; 3], 1).is_err());
-        assert!(Grid::covering([0.0; 3], [1.0, 0.0, 1.0], 8).is_err());
-        assert!(Grid::covering([0.0; 3], [f32::NAN; 3], 8).is_err());
+        assert!(Lattice::covering([0.0; 3], [1.0; 3], 1).is_err());
+        assert!(Lattice::covering([0.0; 3], [1.0, 0.0, 1.0], 8).is_err());
+        assert!(Lattice::covering([0.0; 3], [f32::NAN; 3], 8).is_err());
     }
 }

@@ -1,12 +1,12 @@
 //! The sampling grid of a label volume: voxels, their world positions and the frame times.
 
-use anyhow::{bail, ensure, Context, Result};
+use anyhow::{bail, ensure, Result};
 use dynaslice_data::nifti::LabelVolume;
 
 /// Where a label volume samples the model: `dims` voxels whose centres are at
 /// `world = affine · (i, j, k, 1)`, at each of `times` (one frame per time).
 #[derive(Debug, Clone, PartialEq)]
-pub struct LabelGrid {
+pub struct VoxelGrid {
     /// Voxels per axis (x, y, z).
     pub dims: [usize; 3],
     /// Voxel index → world, rows x, y, z of `[a, b, c, offset]` (the NIfTI sform rows).
@@ -15,13 +15,13 @@ pub struct LabelGrid {
     pub times: Vec<f64>,
 }
 
-impl LabelGrid {
+impl VoxelGrid {
     /// The grid of a reference volume: same dimensions, affine and frames, frame f at time
     /// f · frame interval, the times the NIfTI reader gives a volume's frames when it trains
     /// on it ([`dynaslice_data::reslice`]), so a model trained on `reference` is queried at its
     /// own frames.
-    pub fn like(reference: &LabelVolume) -> LabelGrid {
-        LabelGrid {
+    pub fn like(reference: &LabelVolume) -> VoxelGrid {
+        VoxelGrid {
             dims: reference.dims,
             affine: reference.affine,
             times: (0..reference.frames)
@@ -38,7 +38,7 @@ impl LabelGrid {
         hi: [f64; 3],
         spacing: [f64; 3],
         times: Vec<f64>,
-    ) -> Result<LabelGrid> {
+    ) -> Result<VoxelGrid> {
         let mut dims = [0; 3];
         for a in 0..3 {
             let (extent, s) = (hi[a] - lo[a], spacing[a]);
@@ -67,7 +67,7 @@ impl LabelGrid {
             affine[a][a] = spacing[a];
             affine[a][3] = lo[a] + 0.5 * spacing[a];
         }
-        let grid = LabelGrid {
+        let grid = VoxelGrid {
             dims,
             affine,
             times,
@@ -124,43 +124,13 @@ impl LabelGrid {
     }
 }
 
-/// N times evenly from A to B inclusive, from "A:B:N" (N = 1 needs A = B).
-pub fn parse_times(spec: &str) -> Result<Vec<f64>> {
-    let parts: Vec<&str> = spec.split(':').collect();
-    let [a, b, n] = parts[..] else {
-        bail!("--times {spec:?}: expected A:B:N, e.g. 0:1:37");
-    };
-    let number = |v: &str, what: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .with_context(|| format!("--times {spec:?}: {what} {v:?} is not a number"))
-    };
-    let (a, b) = (number(a, "start")?, number(b, "end")?);
-    let n: usize = n
-        .trim()
-        .parse()
-        .ok()
-        .filter(|&n| n >= 1)
-        .with_context(|| format!("--times {spec:?}: count {n:?} is not a whole number ≥ 1"))?;
-    if n == 1 {
-        ensure!(a == b, "--times {spec:?}: one time needs A = B");
-        return Ok(vec![a]);
-    }
-    ensure!(b > a, "--times {spec:?}: the end must come after the start");
-    Ok((0..n)
-        .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
-        .collect())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn bounds_grid_matches_the_benchmark_truth_grid() {
-        let g = LabelGrid::from_bounds([-1.0; 3], [1.0; 3], [2.0 / 64.0; 3], vec![0.0]).unwrap();
+        let g = VoxelGrid::from_bounds([-1.0; 3], [1.0; 3], [2.0 / 64.0; 3], vec![0.0]).unwrap();
         let truth = dynaslice_data::synth::label_volume(
             dynaslice_data::synth::Shape::Blob,
             &dynaslice_data::synth::BenchmarkOptions {
@@ -171,7 +141,7 @@ mod tests {
         );
         assert_eq!(g.dims, truth.dims);
         assert_eq!(g.affine, truth.affine);
-        assert_eq!(LabelGrid::like(&truth).times, vec![0.0, 1.0]);
+        assert_eq!(VoxelGrid::like(&truth).times, vec![0.0, 1.0]);
         assert!((g.voxel_volume() * 64f64.powi(3) - 8.0).abs() < 1e-9);
         assert_eq!(
             g.world(63, 0, 0),
@@ -180,14 +150,9 @@ mod tests {
     }
 
     #[test]
-    fn times_and_bad_grids() {
-        assert_eq!(parse_times("0:1:3").unwrap(), vec![0.0, 0.5, 1.0]);
-        assert_eq!(parse_times("2:2:1").unwrap(), vec![2.0]);
-        for bad in ["0:1", "0:x:3", "0:1:0", "1:0:3", "0:1:1"] {
-            assert!(parse_times(bad).is_err(), "{bad}");
-        }
+    fn bad_grids_are_refused() {
         let g = |lo: f64, s: f64, times: Vec<f64>| {
-            LabelGrid::from_bounds([lo, 0.0, 0.0], [1.0; 3], [s; 3], times)
+            VoxelGrid::from_bounds([lo, 0.0, 0.0], [1.0; 3], [s; 3], times)
         };
         assert_eq!(g(0.0, 0.3, vec![0.0]).unwrap().dims, [4, 4, 4]);
         assert!(g(1.0, 0.1, vec![0.0])
