@@ -1,6 +1,8 @@
 //! Shared helpers of DynaSlice's cross-crate tests: proptest strategies for random models and
 //! points (the f64 reference network is `dynaslice_test_support::reference`).
 
+#![warn(missing_docs)]
+
 /// Proptest strategies shared by the tests.
 pub mod strategies {
     use dynaslice_core::format::ModelWriter;

@@ -30,6 +30,9 @@ pub struct Args {
     samples: usize,
 }
 
+/// Runs `dynaslice demo`: synth, train, mesh, labels, eval volume, eval synthetic and picture
+/// on the chambers shape, each printed then run as an ordinary subcommand, all outputs under
+/// `--output`.
 pub fn run(a: Args) -> Result<()> {
     let start = Instant::now();
     let out = |p: &str| a.output.join(p).to_string_lossy().into_owned();

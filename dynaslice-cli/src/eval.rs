@@ -9,7 +9,6 @@ use dynaslice_data::native;
 use dynaslice_data::synth::{BenchmarkOptions, Shape};
 use dynaslice_data::TimeSeries;
 use dynaslice_figures::plot::volume_chart;
-use dynaslice_mesh::{self as mesh, Surfaces};
 use dynaslice_metrics::benchmark::{Resolution, Scores, Truth};
 use dynaslice_metrics::chamfer::{self, DEFAULT_SAMPLES};
 use dynaslice_metrics::heldout::{self, Split, DEFAULT_PIXELS};
@@ -155,6 +154,7 @@ struct VolumeArgs {
     output: PathBuf,
 }
 
+/// Runs `dynaslice eval`: one accuracy measure or the volume curve, printed as a table.
 pub fn run(a: Args) -> Result<()> {
     match a.what {
         What::Synthetic(a) => synthetic(a),
@@ -249,28 +249,22 @@ fn reference(a: ReferenceArgs) -> Result<()> {
     }
     let reference = dynaslice_mesh::io::read_stl(&a.reference)?;
     let t = a.time.unwrap_or(f64::from(model.domain().time_range().0));
-    let options = mesh::Options {
-        resolution: a.mesh_resolution,
-        surfaces: Surfaces::Partition,
-        ..mesh::Options::default()
-    };
-    let x = mesh::extract(
+    let cd = chamfer::against_reference(
         &model,
-        model.domain().bounds(),
+        a.class - 1,
         t as f32,
-        &[a.class - 1],
-        &options,
+        &reference,
+        a.mesh_resolution,
+        a.samples,
     )?;
-    let diagonal = chamfer::bounding_diagonal(&reference);
-    let p = chamfer::samples(&x.meshes[0], a.samples, 0);
-    let q = chamfer::samples(&reference, a.samples, 1);
-    let Some(cd) = chamfer::chamfer(&p, &q, diagonal) else {
+    let Some(cd) = cd else {
         bail!(
             "{}: class {} has no surface at time {t}; no Chamfer distance",
             a.model.display(),
             a.class
         );
     };
+    let diagonal = chamfer::bounding_diagonal(&reference);
     println!(
         "CD×10⁴ = {:.4} (model → reference {:.4}, reference → model {:.4}); {} samples per \
          surface, unit-normalised by the reference's bounding-box diagonal {diagonal:.4}",
@@ -339,8 +333,7 @@ fn volume(a: VolumeArgs) -> Result<()> {
         Some(series) => series.times(),
         None => {
             let (t0, t1) = model.domain().time_range();
-            format!("{t0}:{t1}:20")
-                .parse::<TimeSeries>()
+            TimeSeries::across(t0, t1, 20)
                 .map_err(anyhow::Error::msg)?
                 .times()
         }

@@ -12,6 +12,8 @@ pub struct Args {
     model: PathBuf,
 }
 
+/// Runs `dynaslice info`: prints the model's size, layer widths, cost per point, world bounds,
+/// time range, ω_t^max (normalised time), classes with their source labels, and metadata.
 pub fn run(args: Args) -> Result<()> {
     let file = ModelFile::open(&args.model)?;
     let model = file.model();

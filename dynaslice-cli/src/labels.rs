@@ -44,6 +44,7 @@ pub struct Args {
     threads: Option<usize>,
 }
 
+/// Runs `dynaslice labels`: the model's Eq. 11 label volume on a reference grid or a box, as NIfTI.
 pub fn run(a: Args) -> Result<()> {
     let name = a.output.to_string_lossy().to_ascii_lowercase();
     ensure!(
@@ -144,8 +145,7 @@ fn bounds_grid(a: &Args, model: &Model) -> Result<VoxelGrid> {
         Some(series) => series.times(),
         None => {
             let (t0, t1) = model.domain().time_range();
-            format!("{t0}:{t1}:10")
-                .parse::<TimeSeries>()
+            TimeSeries::across(t0, t1, 10)
                 .map_err(anyhow::Error::msg)?
                 .times()
         }

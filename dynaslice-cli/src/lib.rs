@@ -1,6 +1,8 @@
 //! The `dynaslice` command line: one file per subcommand, each a thin layer over the libraries.
 //! [`loss`] is the one flag group shared with the lab's `dynaslice-lab results`.
 
+#![warn(missing_docs)]
+
 mod bench;
 mod demo;
 mod eval;

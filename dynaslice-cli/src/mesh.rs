@@ -5,9 +5,8 @@
 use super::model::ModelFile;
 use anyhow::{bail, Context, Result};
 use dynaslice_core::Model;
-use dynaslice_data::atomic::write_atomically;
 use dynaslice_data::TimeSeries;
-use dynaslice_mesh::io::{self, pvd, Format};
+use dynaslice_mesh::io::{Format, MeshFiles};
 use dynaslice_mesh::{self as mesh, Extraction, Options, Sampling, Surfaces, DEFAULT_SAFETY};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -67,58 +66,31 @@ fn parse_format(s: &str) -> Result<Format, String> {
 
 /// The 0-based channels of the `--class` values (numbers or names), all classes by default.
 fn resolve_classes(model: &Model, path: &Path, wanted: &[String]) -> Result<Vec<usize>> {
-    let classes: Vec<_> = model.classes().collect();
     if wanted.is_empty() {
-        return Ok((0..classes.len()).collect());
+        return Ok((0..model.num_classes()).collect());
     }
     let mut out = Vec::new();
     for w in wanted {
-        let by_number = w
-            .parse::<usize>()
-            .ok()
-            .filter(|k| (1..=classes.len()).contains(k))
-            .map(|k| k - 1);
-        let by_name = || classes.iter().position(|c| c.name == w.as_str());
-        match by_number.or_else(by_name) {
-            Some(k) if !out.contains(&k) => out.push(k),
-            Some(_) => {}
-            None => {
-                let list: Vec<String> = classes
-                    .iter()
-                    .enumerate()
-                    .map(|(i, c)| format!("{} {:?}", i + 1, c.name))
-                    .collect();
-                bail!(
-                    "{}: no class {w:?}; its classes are {}",
-                    path.display(),
-                    list.join(", ")
-                );
-            }
+        let Some(k) = model.find_class(w) else {
+            let list: Vec<String> = model
+                .classes()
+                .enumerate()
+                .map(|(i, c)| format!("{} {:?}", i + 1, c.name))
+                .collect();
+            bail!(
+                "{}: no class {w:?}; its classes are {}",
+                path.display(),
+                list.join(", ")
+            );
+        };
+        if !out.contains(&k) {
+            out.push(k);
         }
     }
     Ok(out)
 }
 
-/// The class part of file names: `class{k}_{name}` with the name reduced to [A-Za-z0-9-].
-fn class_tag(k: usize, name: &str) -> String {
-    let slug: String = name
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' {
-                c
-            } else {
-                '-'
-            }
-        })
-        .collect();
-    let slug = slug.trim_matches('-');
-    if slug.is_empty() {
-        format!("class{}", k + 1)
-    } else {
-        format!("class{}_{slug}", k + 1)
-    }
-}
-
+/// Runs `dynaslice mesh`: the selected classes' surfaces at one time or a series, on `--threads`.
 pub fn run(args: Args) -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
@@ -165,29 +137,10 @@ fn mesh_all(args: &Args) -> Result<()> {
     };
     // Where each (time, class) mesh goes.
     let series = args.times.is_some();
-    let format = if series {
-        std::fs::create_dir_all(&args.output)
-            .with_context(|| format!("cannot create directory {}", args.output.display()))?;
-        args.format
+    let mut files = if series {
+        MeshFiles::series(&args.output, args.format)?
     } else {
-        Format::from_path(&args.output)?
-    };
-    let path_of = |i: usize, k: usize| -> PathBuf {
-        let tag = class_tag(k, &names[k]);
-        if series {
-            args.output
-                .join(format!("{tag}_t{i:04}.{}", format.extension()))
-        } else if classes.len() == 1 {
-            args.output.clone()
-        } else {
-            let stem = args
-                .output
-                .file_stem()
-                .unwrap_or_default()
-                .to_string_lossy();
-            args.output
-                .with_file_name(format!("{stem}_{tag}.{}", format.extension()))
-        }
+        MeshFiles::single(&args.output, classes.len())?
     };
 
     let bar = (series && std::io::stderr().is_terminal()).then(|| {
@@ -202,7 +155,6 @@ fn mesh_all(args: &Args) -> Result<()> {
         bar
     });
     let bounds = model.domain().bounds();
-    let mut entries = Vec::new();
     let (mut values, mut jacobians, mut dense) = (0u64, 0u64, 0u64);
     let started = Instant::now();
     for (i, &t) in times.iter().enumerate() {
@@ -233,7 +185,7 @@ fn mesh_all(args: &Args) -> Result<()> {
             stats.dense_evaluations as f64 / stats.value_evaluations.max(1) as f64
         ));
         for (mesh, &k) in meshes.iter().zip(&classes) {
-            let path = path_of(i, k);
+            let path = files.path(i, k, &names[k]);
             let topology = mesh.topology();
             report(format!(
                 "  class {} ({}): {} vertices, {} triangles, volume {:.6}, area {:.6}{} -> {}",
@@ -250,16 +202,7 @@ fn mesh_all(args: &Args) -> Result<()> {
                 },
                 path.display()
             ));
-            io::write(&path, mesh, format, &names[k])?;
-            entries.push(pvd::Entry {
-                time: t,
-                part: k as u32 + 1,
-                file: path
-                    .file_name()
-                    .unwrap_or_default()
-                    .to_string_lossy()
-                    .into_owned(),
-            });
+            files.write(i, t, k, &names[k], mesh)?;
         }
         if let Some(bar) = &bar {
             bar.inc(1);
@@ -268,16 +211,12 @@ fn mesh_all(args: &Args) -> Result<()> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
-    if series {
-        if format == Format::Vtp {
-            let path = args.output.join("series.pvd");
-            write_atomically(&path, pvd::encode(&entries).as_bytes())?;
-            eprintln!("wrote {}", path.display());
-        } else {
-            eprintln!(
-                "no series.pvd: ParaView collections list VTK XML files only (use --format vtp)"
-            );
-        }
+    match files.finish()? {
+        Some(pvd) => eprintln!("wrote {}", pvd.display()),
+        None if series => eprintln!(
+            "no series.pvd: ParaView collections list VTK XML files only (use --format vtp)"
+        ),
+        None => {}
     }
     if times.len() > 1 {
         eprintln!(
@@ -288,16 +227,4 @@ fn mesh_all(args: &Args) -> Result<()> {
         );
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn class_tags_are_file_name_safe() {
-        assert_eq!(class_tag(0, "LV blood pool"), "class1_LV-blood-pool");
-        assert_eq!(class_tag(2, "myo/cardium"), "class3_myo-cardium");
-        assert_eq!(class_tag(1, "??"), "class2");
-    }
 }

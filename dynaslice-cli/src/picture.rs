@@ -28,6 +28,9 @@ pub struct Args {
     times: Option<Vec<f64>>,
 }
 
+/// Runs `dynaslice picture`: the labels on one input plane (by default the frame's plane with
+/// the longest contours) at the frame's time, with its contours, and at the extra times
+/// (by default midway to the next frame), written as one PNG.
 pub fn run(a: Args) -> Result<()> {
     let file = ModelFile::open(&a.model)?;
     let model = file.model();

@@ -24,6 +24,8 @@ pub struct Args {
     t: f32,
 }
 
+/// Runs `dynaslice query`: prints each class's f, ∇ₓf and ∂f/∂t at the world point and time,
+/// then the Eq. 11 label.
 pub fn run(args: Args) -> Result<()> {
     let file = ModelFile::open(&args.model)?;
     let model = file.model();

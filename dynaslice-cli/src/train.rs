@@ -104,6 +104,8 @@ fn beside(model: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// Runs `dynaslice train`: trains on the input's frames (checkpointing beside the output),
+/// then writes the model file atomically and its loss log (`.loss.csv`) and curve (`.loss.png`).
 pub fn run(a: Args) -> Result<()> {
     let seq = input::read(&a.input)?;
     let domain = domain_for(&seq);

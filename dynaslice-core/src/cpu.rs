@@ -63,24 +63,18 @@ impl Avx2 {
 /// Only [`Avx512::detect`] makes one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Avx512 {
-    // Private: safe code outside this module cannot make a token.
-    _detected: (),
+    // Private: safe code outside this module cannot make a token. The level includes AVX2's.
+    _avx2: Avx2,
 }
 
 impl Avx512 {
     /// The token, if this CPU has AVX-512 F and VL, AVX2, FMA and F16C (never off x86-64 or
     /// without `std`).
     pub fn detect() -> Option<Avx512> {
+        let _avx2 = Avx2::detect()?;
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        {
-            if std::is_x86_feature_detected!("avx512f")
-                && std::is_x86_feature_detected!("avx512vl")
-                && std::is_x86_feature_detected!("avx2")
-                && std::is_x86_feature_detected!("fma")
-                && std::is_x86_feature_detected!("f16c")
-            {
-                return Some(Avx512 { _detected: () });
-            }
+        if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512vl") {
+            return Some(Avx512 { _avx2 });
         }
         None
     }

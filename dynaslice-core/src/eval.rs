@@ -103,15 +103,7 @@ impl Model<'_> {
     /// The K signed distances f(x, t) at world point `x` and world time `t`.
     /// `f.len()` must be K.
     pub fn eval(&self, x: [f32; 3], t: f32, f: &mut [f32]) -> Result<(), Error> {
-        self.point(
-            x,
-            t,
-            Outputs {
-                f,
-                grad: None,
-                dfdt: None,
-            },
-        )
+        self.point(x, t, Outputs::new(f, None, None))
     }
 
     /// f and its exact spatial gradients: `grad[k]` = ∇ₓf^k in world units.
@@ -123,15 +115,7 @@ impl Model<'_> {
         f: &mut [f32],
         grad: &mut [[f32; 3]],
     ) -> Result<(), Error> {
-        self.point(
-            x,
-            t,
-            Outputs {
-                f,
-                grad: Some(grad),
-                dfdt: None,
-            },
-        )
+        self.point(x, t, Outputs::new(f, Some(grad), None))
     }
 
     /// f, ∇ₓf and ∂f/∂t (world units per world time unit). Every slice must have K entries.
@@ -143,15 +127,7 @@ impl Model<'_> {
         grad: &mut [[f32; 3]],
         dfdt: &mut [f32],
     ) -> Result<(), Error> {
-        self.point(
-            x,
-            t,
-            Outputs {
-                f,
-                grad: Some(grad),
-                dfdt: Some(dfdt),
-            },
-        )
+        self.point(x, t, Outputs::new(f, Some(grad), Some(dfdt)))
     }
 
     /// The Eq. 11 label at (x, t): 0 for background, k for class k, or
@@ -174,16 +150,7 @@ impl Model<'_> {
         t: &[f32],
         f: &mut [f32],
     ) -> Result<(), Error> {
-        self.batch(
-            scratch,
-            xyz,
-            t,
-            Outputs {
-                f,
-                grad: None,
-                dfdt: None,
-            },
-        )
+        self.batch(scratch, xyz, t, Outputs::new(f, None, None))
     }
 
     /// f and ∇ₓf at many points: `grad[i*K + k]` = ∇ₓf^k at point i.
@@ -195,16 +162,7 @@ impl Model<'_> {
         f: &mut [f32],
         grad: &mut [[f32; 3]],
     ) -> Result<(), Error> {
-        self.batch(
-            scratch,
-            xyz,
-            t,
-            Outputs {
-                f,
-                grad: Some(grad),
-                dfdt: None,
-            },
-        )
+        self.batch(scratch, xyz, t, Outputs::new(f, Some(grad), None))
     }
 
     /// f, ∇ₓf and ∂f/∂t at many points (the surface normal velocity needs all three).
@@ -217,16 +175,7 @@ impl Model<'_> {
         grad: &mut [[f32; 3]],
         dfdt: &mut [f32],
     ) -> Result<(), Error> {
-        self.batch(
-            scratch,
-            xyz,
-            t,
-            Outputs {
-                f,
-                grad: Some(grad),
-                dfdt: Some(dfdt),
-            },
-        )
+        self.batch(scratch, xyz, t, Outputs::new(f, Some(grad), Some(dfdt)))
     }
 
     /// Eq. 11 labels at many points (`labels.len()` = number of points).
@@ -444,6 +393,16 @@ impl Model<'_> {
 }
 
 impl<'o> Outputs<'o> {
+    /// The buffers of one query: `f` always, each derivative where the caller asks for it.
+    #[inline]
+    fn new(
+        f: &'o mut [f32],
+        grad: Option<&'o mut [[f32; 3]]>,
+        dfdt: Option<&'o mut [f32]>,
+    ) -> Outputs<'o> {
+        Outputs { f, grad, dfdt }
+    }
+
     /// Checks every buffer holds `points · K` entries; returns the tangents they need.
     fn check(&self, k: usize, points: usize) -> Result<Tangents, Error> {
         let n = points.checked_mul(k).ok_or(Error::BufferLength {
@@ -466,11 +425,7 @@ impl<'o> Outputs<'o> {
     }
 
     fn reborrow(&mut self) -> Outputs<'_> {
-        Outputs {
-            f: self.f,
-            grad: self.grad.as_deref_mut(),
-            dfdt: self.dfdt.as_deref_mut(),
-        }
+        Outputs::new(self.f, self.grad.as_deref_mut(), self.dfdt.as_deref_mut())
     }
 }
 

@@ -128,4 +128,44 @@ impl<'a> Model<'a> {
     pub fn classes(&self) -> impl Iterator<Item = ClassInfo<'a>> + '_ {
         (1..=self.num_classes() as u32).filter_map(move |k| self.class(k).ok())
     }
+
+    /// The class a user names, as its 0-based channel: `key` is a class number in `1..=K` or a
+    /// class name (exact match). A number wins over a class whose name is that number, so
+    /// `"2"` always means the second class. `None` when nothing matches.
+    pub fn find_class(&self, key: &str) -> Option<usize> {
+        let by_number = key
+            .parse::<usize>()
+            .ok()
+            .filter(|k| (1..=self.num_classes()).contains(k))
+            .map(|k| k - 1);
+        by_number.or_else(|| self.classes().position(|c| c.name == key))
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use crate::format::ModelWriter;
+    use crate::ModelBytes;
+    use std::string::ToString;
+    use std::vec;
+
+    #[test]
+    fn find_class_takes_numbers_first_then_names() {
+        let mut w = ModelWriter::random_siren(&[8], 3, 1);
+        w.classes = vec![
+            ("liver".to_string(), 5),
+            ("3".to_string(), 7),
+            ("lung left".to_string(), 2),
+        ];
+        let bytes = ModelBytes::copy_from(&w.to_bytes());
+        let m = bytes.model().unwrap();
+        assert_eq!(m.find_class("1"), Some(0));
+        assert_eq!(m.find_class("3"), Some(2), "a number wins over a name");
+        assert_eq!(m.find_class("lung left"), Some(2));
+        assert_eq!(m.find_class("liver"), Some(0));
+        assert_eq!(m.find_class("0"), None);
+        assert_eq!(m.find_class("4"), None);
+        assert_eq!(m.find_class("Liver"), None);
+        assert_eq!(m.find_class(""), None);
+    }
 }

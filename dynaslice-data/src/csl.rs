@@ -103,6 +103,16 @@ impl<'a> Lines<'a> {
         }
     }
 
+    /// The line of item `index` (0-based) of `declared` items that take a line each (planes,
+    /// vertices, components): running out of lines is a count mismatch.
+    fn item(&mut self, what: &str, index: usize, declared: usize) -> Result<(usize, Vec<&'a str>)> {
+        self.next(|| ErrorKind::CountMismatch {
+            what: what.into(),
+            declared,
+            found: index,
+        })
+    }
+
     /// Capacity to reserve for `declared` items that take a line each (planes, vertices,
     /// components): a count field is untrusted input, so it is capped by the lines that are left.
     /// (A fixed cap let a tiny file claiming 2^31 vertices reserve 24 MiB before failing.)
@@ -169,12 +179,9 @@ fn parse_file(text: &str) -> Result<RawFile> {
 }
 
 fn parse_plane(lines: &mut Lines, pi: usize, n_planes: usize) -> Result<RawPlane> {
-    let (n, h) = lines.next(|| ErrorKind::CountMismatch {
-        what: "planes".into(),
-        // The header's count (this said `pi + 1`, e.g. "the header says 2" for 2^31 planes).
-        declared: n_planes,
-        found: pi,
-    })?;
+    // Declared is the header's count, not `pi + 1` (which said "the header says 2" for 2^31
+    // planes).
+    let (n, h) = lines.item("planes", pi, n_planes)?;
     if h.len() != 7 {
         return Err(syntax(
             n,
@@ -200,11 +207,7 @@ fn parse_plane(lines: &mut Lines, pi: usize, n_planes: usize) -> Result<RawPlane
     }
     let mut vertices = Vec::with_capacity(lines.capacity(n_verts));
     for vi in 0..n_verts {
-        let (ln, t) = lines.next(|| ErrorKind::CountMismatch {
-            what: "vertices of the plane".into(),
-            declared: n_verts,
-            found: vi,
-        })?;
+        let (ln, t) = lines.item("vertices of the plane", vi, n_verts)?;
         if t.len() != 3 {
             let hint = if t.len() > 3 || t.first().is_some_and(|s| s.contains('h')) {
                 " (the vertex count may be wrong)"
@@ -231,11 +234,7 @@ fn parse_plane(lines: &mut Lines, pi: usize, n_planes: usize) -> Result<RawPlane
     }
     let mut components = Vec::with_capacity(lines.capacity(n_comps));
     for ci in 0..n_comps {
-        let (ln, t) = lines.next(|| ErrorKind::CountMismatch {
-            what: "components of the plane".into(),
-            declared: n_comps,
-            found: ci,
-        })?;
+        let (ln, t) = lines.item("components of the plane", ci, n_comps)?;
         if t.len() < 2 {
             return Err(syntax(
                 ln,

@@ -13,6 +13,8 @@
 //! timestep, plane, class and what is wrong. Nothing panics on input and nothing is dropped
 //! silently.
 
+#![warn(missing_docs)]
+
 pub mod atomic;
 pub mod csl;
 pub mod error;

@@ -293,10 +293,12 @@ fn grow(b: &mut Aabb, x: [f64; 3]) {
     b.max = std::array::from_fn(|k| b.max[k].max(x[k]));
 }
 
+/// The dot product a·b of two 3-vectors.
 pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// The cross product a × b of two 3-vectors (right-handed).
 pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],

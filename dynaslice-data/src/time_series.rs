@@ -13,6 +13,13 @@ pub struct TimeSeries {
 }
 
 impl TimeSeries {
+    /// `count` times across `[start, end]` given in f32 (a model's time range), each end taken at
+    /// its shortest decimal form, exactly as if the user had typed `START:END:COUNT`, so that a
+    /// default series and the same series typed by hand give the same times.
+    pub fn across(start: f32, end: f32, count: usize) -> Result<TimeSeries, String> {
+        format!("{start}:{end}:{count}").parse()
+    }
+
     /// The times, `start + (end − start) · i / (N − 1)` for i = 0..N.
     pub fn times(&self) -> Vec<f64> {
         if self.count == 1 {
@@ -125,5 +132,14 @@ mod tests {
                 "{bad}: {e}"
             );
         }
+    }
+
+    #[test]
+    fn across_reads_f32_ends_as_typed() {
+        let typed = times("0.1:0.7:4");
+        assert_eq!(TimeSeries::across(0.1, 0.7, 4).unwrap().times(), typed);
+        assert_eq!(typed[0], 0.1, "not 0.1f32 widened");
+        assert!(TimeSeries::across(1.0, 0.0, 3).is_err());
+        assert!(TimeSeries::across(f32::NAN, 1.0, 3).is_err());
     }
 }

@@ -493,17 +493,9 @@ pub unsafe extern "C" fn ds_time_range(
 ) -> c_int {
     guard("ds_time_range", || {
         // SAFETY: per this function's contract.
-        let model = unsafe { model_ref(model) }?;
-        // NULL before overlap: two NULL outputs are missing, not overlapping.
-        check_array(t_min, 1, "t_min")?;
-        check_array(t_max, 1, "t_max")?;
-        disjoint(&[span("t_min", t_min, 1), span("t_max", t_max, 1)])?;
-        let (lo, hi) = model.model().domain().time_range();
-        // SAFETY: per this function's contract; disjoint checked above.
-        let (a, b) = unsafe { (output(t_min, 1, "t_min")?, output(t_max, 1, "t_max")?) };
-        a[0] = lo;
-        b[0] = hi;
-        Ok(DS_OK)
+        let (lo, hi) = unsafe { model_ref(model) }?.model().domain().time_range();
+        // SAFETY: per this function's contract.
+        unsafe { write_range((t_min, "t_min"), (t_max, "t_max"), ([lo], [hi])) }
     })
 }
 
@@ -520,26 +512,44 @@ pub unsafe extern "C" fn ds_bounds(
 ) -> c_int {
     guard("ds_bounds", || {
         // SAFETY: per this function's contract.
-        let model = unsafe { model_ref(model) }?;
-        check_array(min_xyz, 3, "min_xyz")?;
-        check_array(max_xyz, 3, "max_xyz")?;
-        disjoint(&[span("min_xyz", min_xyz, 3), span("max_xyz", max_xyz, 3)])?;
-        let (lo, hi) = model.model().domain().bounds();
-        // SAFETY: per this function's contract; disjoint checked above.
-        let (a, b) = unsafe {
-            (
-                output(min_xyz, 3, "min_xyz")?,
-                output(max_xyz, 3, "max_xyz")?,
-            )
-        };
-        a.copy_from_slice(&lo);
-        b.copy_from_slice(&hi);
-        Ok(DS_OK)
+        let range = unsafe { model_ref(model) }?.model().domain().bounds();
+        // SAFETY: per this function's contract.
+        unsafe { write_range((min_xyz, "min_xyz"), (max_xyz, "max_xyz"), range) }
     })
 }
 
-/// Fails unless an output of `sdf_len` entries per point holds the model's K.
-fn check_sdf_len(model: &Model, sdf_len: usize) -> Result<usize, Failure> {
+/// Stores the two ends of a range, `N` floats each, in two caller arrays that must not overlap.
+///
+/// # Safety
+/// `lo` and `hi` must each be NULL or point to `N` writable floats.
+unsafe fn write_range<const N: usize>(
+    (lo, lo_name): (*mut f32, &str),
+    (hi, hi_name): (*mut f32, &str),
+    (min, max): ([f32; N], [f32; N]),
+) -> Result<c_int, Failure> {
+    // NULL before overlap: two NULL outputs are missing, not overlapping.
+    check_array(lo, N, lo_name)?;
+    check_array(hi, N, hi_name)?;
+    disjoint(&[span(lo_name, lo, N), span(hi_name, hi, N)])?;
+    // SAFETY: per this function's contract; disjoint checked above.
+    let (a, b) = unsafe { (output(lo, N, lo_name)?, output(hi, N, hi_name)?) };
+    a.copy_from_slice(&min);
+    b.copy_from_slice(&max);
+    Ok(DS_OK)
+}
+
+/// The model, the query point and K of a single-point query, failing unless an output of
+/// `sdf_len` entries holds the model's K.
+///
+/// # Safety
+/// `model` must be NULL or a live model; `xyz` NULL or 3 readable floats.
+unsafe fn point_query<'a>(
+    model: *const DsModel,
+    xyz: *const f32,
+    sdf_len: usize,
+) -> Result<(&'a Model<'a>, [f32; 3], usize), Failure> {
+    // SAFETY: per this function's contract.
+    let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
     let k = model.num_classes();
     if sdf_len < k {
         return Err(Failure::new(
@@ -547,7 +557,7 @@ fn check_sdf_len(model: &Model, sdf_len: usize) -> Result<usize, Failure> {
             format!("sdf_len is {sdf_len}, the model has {k} classes"),
         ));
     }
-    Ok(k)
+    Ok((model, x, k))
 }
 
 /// Evaluates the K signed distances f(x, t) at world point `xyz` (3 floats) and world time `t`
@@ -567,8 +577,7 @@ pub unsafe extern "C" fn ds_eval(
 ) -> c_int {
     guard("ds_eval", || {
         // SAFETY: per this function's contract.
-        let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
-        let k = check_sdf_len(model, sdf_len)?;
+        let (model, x, k) = unsafe { point_query(model, xyz, sdf_len) }?;
         // SAFETY: per this function's contract; the only slice of this call (`x` is a copy).
         let f = unsafe { output(sdf, sdf_len, "sdf") }?;
         model.eval(x, t, &mut f[..k]).map_err(Failure::model)?;
@@ -593,25 +602,21 @@ pub unsafe extern "C" fn ds_eval_grad(
 ) -> c_int {
     guard("ds_eval_grad", || {
         // SAFETY: per this function's contract.
-        let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
-        let k = check_sdf_len(model, sdf_len)?;
-        // K ≤ format::MAX_CLASSES, so 3K cannot overflow.
-        let grad_len = 3 * k;
+        let (model, x, k) = unsafe { point_query(model, xyz, sdf_len) }?;
         check_array(sdf, sdf_len, "sdf")?;
-        check_array(grad, grad_len, "grad")?;
-        disjoint(&[span("sdf", sdf, sdf_len), span("grad", grad, grad_len)])?;
+        // `[f32; 3]` rows: K of them are the 3K floats (K ≤ format::MAX_CLASSES: no overflow).
+        check_array(grad.cast::<[f32; 3]>(), k, "grad")?;
+        disjoint(&[span("sdf", sdf, sdf_len), span("grad", grad, 3 * k)])?;
         // SAFETY: per this function's contract; disjoint checked above.
         let (f, g) = unsafe {
             (
                 output(sdf, sdf_len, "sdf")?,
-                output(grad, grad_len, "grad")?,
+                output(grad.cast::<[f32; 3]>(), k, "grad")?,
             )
         };
-        let mut rows = [[0.0f32; 3]; format::MAX_CLASSES];
         model
-            .eval_grad(x, t, &mut f[..k], &mut rows[..k])
+            .eval_grad(x, t, &mut f[..k], g)
             .map_err(Failure::model)?;
-        g.copy_from_slice(rows[..k].as_flattened());
         Ok(DS_OK)
     })
 }
@@ -634,31 +639,27 @@ pub unsafe extern "C" fn ds_eval_jacobian(
 ) -> c_int {
     guard("ds_eval_jacobian", || {
         // SAFETY: per this function's contract.
-        let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
-        let k = check_sdf_len(model, sdf_len)?;
-        // K ≤ format::MAX_CLASSES, so 3K cannot overflow.
-        let grad_len = 3 * k;
+        let (model, x, k) = unsafe { point_query(model, xyz, sdf_len) }?;
         check_array(sdf, sdf_len, "sdf")?;
-        check_array(grad, grad_len, "grad")?;
+        // As in `ds_eval_grad`.
+        check_array(grad.cast::<[f32; 3]>(), k, "grad")?;
         check_array(dfdt, sdf_len, "dfdt")?;
         disjoint(&[
             span("sdf", sdf, sdf_len),
-            span("grad", grad, grad_len),
+            span("grad", grad, 3 * k),
             span("dfdt", dfdt, sdf_len),
         ])?;
         // SAFETY: per this function's contract; disjoint checked above.
         let (f, g, d) = unsafe {
             (
                 output(sdf, sdf_len, "sdf")?,
-                output(grad, grad_len, "grad")?,
+                output(grad.cast::<[f32; 3]>(), k, "grad")?,
                 output(dfdt, sdf_len, "dfdt")?,
             )
         };
-        let mut rows = [[0.0f32; 3]; format::MAX_CLASSES];
         model
-            .eval_jacobian(x, t, &mut f[..k], &mut rows[..k], &mut d[..k])
+            .eval_jacobian(x, t, &mut f[..k], g, &mut d[..k])
             .map_err(Failure::model)?;
-        g.copy_from_slice(rows[..k].as_flattened());
         Ok(DS_OK)
     })
 }
@@ -702,6 +703,45 @@ unsafe fn batch_inputs<'a>(
     Ok((points, times))
 }
 
+/// `n * K`, the entries of a batch's `sdf` (and of its `grad` rows), if it fits in `size_t`.
+fn batch_len(model: &Model, n: usize) -> Result<usize, Failure> {
+    n.checked_mul(model.num_classes())
+        .ok_or_else(|| Failure::new(DS_E_INVALID_ARGUMENT, "n * K overflows"))
+}
+
+/// Fails when the outputs overlap each other or either input of a batch of `n` points; the
+/// inputs may overlap each other (both are only read).
+fn batch_disjoint(
+    outputs: &[(&str, usize, usize)],
+    n: usize,
+    xyz: *const f32,
+    t: *const f32,
+) -> Result<(), Failure> {
+    for input in [span("xyz", xyz, 3 * n), span("t", t, n)] {
+        disjoint(&[outputs, &[input]].concat())?;
+    }
+    Ok(())
+}
+
+/// The one output array of a batch call: `len` elements, checked as by [`output`], disjoint
+/// from the inputs.
+///
+/// # Safety
+/// `ptr` must be NULL or point to `len` writable `T`s; `xyz` and `t` are the call's inputs.
+unsafe fn batch_output<'a, T>(
+    ptr: *mut T,
+    len: usize,
+    what: &str,
+    n: usize,
+    xyz: *const f32,
+    t: *const f32,
+) -> Result<&'a mut [T], Failure> {
+    check_array(ptr, len, what)?;
+    batch_disjoint(&[span(what, ptr, len)], n, xyz, t)?;
+    // SAFETY: per this function's contract; disjoint from the inputs (checked above).
+    unsafe { output(ptr, len, what) }
+}
+
 /// Runs `body` with this thread's batch scratch (allocated on the thread's first batch call).
 fn with_scratch<R>(body: impl FnOnce(&mut Scratch) -> R) -> Result<R, Failure> {
     // Taken out of the slot for the call, so the slot is never borrowed across `body`.
@@ -735,14 +775,9 @@ pub unsafe extern "C" fn ds_eval_batch(
         // SAFETY: per this function's contract.
         let (model, (points, times)) =
             unsafe { (model_ref(model)?.model(), batch_inputs(n, xyz, t)?) };
-        let len = n
-            .checked_mul(model.num_classes())
-            .ok_or_else(|| Failure::new(DS_E_INVALID_ARGUMENT, "n * K overflows"))?;
-        check_array(sdf, len, "sdf")?;
-        disjoint(&[span("sdf", sdf, len), span("xyz", xyz, 3 * n)])?;
-        disjoint(&[span("sdf", sdf, len), span("t", t, n)])?;
-        // SAFETY: per this function's contract; disjoint from the inputs (checked above).
-        let f = unsafe { output(sdf, len, "sdf") }?;
+        let len = batch_len(model, n)?;
+        // SAFETY: per this function's contract.
+        let f = unsafe { batch_output(sdf, len, "sdf", n, xyz, t) }?;
         with_scratch(|s| model.eval_batch(s, points, times, f))?.map_err(Failure::model)?;
         Ok(DS_OK)
     })
@@ -766,16 +801,12 @@ pub unsafe extern "C" fn ds_eval_grad_batch(
         // SAFETY: per this function's contract.
         let (model, (points, times)) =
             unsafe { (model_ref(model)?.model(), batch_inputs(n, xyz, t)?) };
-        let len = n
-            .checked_mul(model.num_classes())
-            .ok_or_else(|| Failure::new(DS_E_INVALID_ARGUMENT, "n * K overflows"))?;
+        let len = batch_len(model, n)?;
         check_array(sdf, len, "sdf")?;
         // `[f32; 3]` rows: the element-count check also bounds the float count 3·len.
         check_array(grad.cast::<[f32; 3]>(), len, "grad")?;
-        let (s, g) = (span("sdf", sdf, len), span("grad", grad, 3 * len));
-        let (x, tt) = (span("xyz", xyz, 3 * n), span("t", t, n));
-        disjoint(&[s, g, x])?;
-        disjoint(&[s, g, tt])?;
+        let outputs = [span("sdf", sdf, len), span("grad", grad, 3 * len)];
+        batch_disjoint(&outputs, n, xyz, t)?;
         // SAFETY: per this function's contract; disjoint from each other and the inputs.
         let (f, g) = unsafe {
             (
@@ -806,11 +837,8 @@ pub unsafe extern "C" fn ds_label_batch(
         // SAFETY: per this function's contract.
         let (model, (points, times)) =
             unsafe { (model_ref(model)?.model(), batch_inputs(n, xyz, t)?) };
-        check_array(labels, n, "labels")?;
-        disjoint(&[span("labels", labels, n), span("xyz", xyz, 3 * n)])?;
-        disjoint(&[span("labels", labels, n), span("t", t, n)])?;
-        // SAFETY: per this function's contract; disjoint from the inputs (checked above).
-        let out = unsafe { output(labels, n, "labels") }?;
+        // SAFETY: per this function's contract.
+        let out = unsafe { batch_output(labels, n, "labels", n, xyz, t) }?;
         with_scratch(|s| model.label_batch(s, points, times, out))?.map_err(Failure::model)?;
         Ok(DS_OK)
     })

@@ -10,6 +10,8 @@
 //! 4. [`vertices`]: Newton steps onto F = 0 along ∇ₓF; normals and normal velocity.
 //! 5. [`geometry`]: the [`Mesh`] type, volume, area, topology checks; [`io`]: file formats.
 
+#![warn(missing_docs)]
+
 #[cfg(test)]
 mod analytic;
 pub mod field;

@@ -18,6 +18,7 @@
 //! 30 000 points cost milliseconds, and its batch queries run on the rayon pool.
 
 use anyhow::Result;
+use dynaslice_core::Model;
 use dynaslice_data::synth::Shape;
 use dynaslice_mesh::{self as mesh, Mesh, PointField, Surfaces};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
@@ -93,6 +94,32 @@ pub fn bounding_diagonal(mesh: &Mesh) -> f64 {
         return 0.0;
     }
     (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// The Chamfer distance from class `class` of `model` at time `t` to a `reference` mesh: the
+/// class's surface extracted as its Eq. 11 partition boundary with `mesh_resolution` cells along
+/// the domain's longest axis, `samples` area-uniform points on each surface (seeds 0 and 1),
+/// normalised by the reference's bounding-box diagonal. `None` when the class has no surface at
+/// `t`.
+pub fn against_reference(
+    model: &Model,
+    class: usize,
+    t: f32,
+    reference: &Mesh,
+    mesh_resolution: u32,
+    samples: usize,
+) -> Result<Option<Chamfer>> {
+    let options = mesh::Options {
+        resolution: mesh_resolution,
+        surfaces: Surfaces::Partition,
+        ..mesh::Options::default()
+    };
+    let x = mesh::extract(model, model.domain().bounds(), t, &[class], &options)?;
+    Ok(chamfer(
+        &self::samples(&x.meshes[0], samples, 0),
+        &self::samples(reference, samples, 1),
+        bounding_diagonal(reference),
+    ))
 }
 
 /// The synthetic benchmark's exact shapes as a mesh source ([`PointField`]), to mesh the ground truth with

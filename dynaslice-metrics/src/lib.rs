@@ -6,14 +6,14 @@
 //! - [`inside`]: 3D IoU against a reference triangle mesh (inside cells by ray parity).
 //! - [`heldout`]: 2D IoU on withheld planes and frames (spatial, temporal, spatio-temporal).
 //! - [`volume`]: each class's volume over time.
-//! - [`spheres`]: a hand-built model of growing spheres, a closed-form ground truth for tests.
+
+#![warn(missing_docs)]
 
 pub mod benchmark;
 pub mod chamfer;
 pub mod heldout;
 pub mod inside;
 pub mod iou;
-
 pub mod volume;
 
 /// Which frames an average is over.

@@ -143,16 +143,32 @@ impl DataSampler {
         Ok(self)
     }
 
-    fn normalise(&self, x: [f32; 3], t: f32) -> [f32; 4] {
-        self.domain.normalise(x, t)
+    /// Replaces `out` with the normalised (x, y, z, t) of the samples at `xyz`, `t`.
+    fn normalise_into(&self, xyz: &[[f32; 3]], t: &[f32], out: &mut Vec<[f32; 4]>) {
+        out.clear();
+        out.extend(
+            xyz.iter()
+                .zip(t)
+                .map(|(x, &t)| self.domain.normalise(*x, t)),
+        );
     }
 
-    /// 1/N_k for each class's share of `classes` (Eq. 10: a mean per class, summed).
-    fn class_weights(per_class: &mut [usize], classes: &[u32]) {
+    /// Each sample's class and weight in a set whose classes are `classes`: the class's weight
+    /// over N_k, the set's count of that class (Eq. 10: a mean per class, summed). `per_class`
+    /// is scratch for the counts.
+    fn weighted_classes<'s>(
+        per_class: &'s mut [usize],
+        class_weight: &'s [f32],
+        classes: &'s [u32],
+    ) -> impl Iterator<Item = (u32, f32)> + 's {
         per_class.fill(0);
         for &c in classes {
             per_class[c as usize] += 1;
         }
+        let per_class = &*per_class;
+        classes
+            .iter()
+            .map(move |&c| (c, class_weight[c as usize] / per_class[c as usize] as f32))
     }
 }
 
@@ -180,38 +196,26 @@ impl Sampler for DataSampler {
         );
 
         let sigma = self.domain.output_scale;
-        b.contour_x.clear();
-        b.contour_normal.clear();
+        self.normalise_into(&self.contour.xyz, &self.contour.t, &mut b.contour_x);
+        b.contour_normal.clone_from(&self.contour.normal);
+        let weighted =
+            Self::weighted_classes(&mut self.per_class, &self.class_weight, &self.contour.class);
         b.contour.clear();
-        Self::class_weights(&mut self.per_class, &self.contour.class);
-        for i in 0..self.contour.len() {
-            let c = self.contour.class[i];
-            b.contour_x
-                .push(self.normalise(self.contour.xyz[i], self.contour.t[i]));
-            b.contour_normal.push(self.contour.normal[i]);
-            b.contour.push(ContourSample {
-                class: c,
-                weight: self.class_weight[c as usize] / self.per_class[c as usize] as f32,
-            });
-        }
-        b.plane_x.clear();
+        b.contour
+            .extend(weighted.map(|(class, weight)| ContourSample { class, weight }));
+        self.normalise_into(&self.planes.xyz, &self.planes.t, &mut b.plane_x);
+        let weighted =
+            Self::weighted_classes(&mut self.per_class, &self.class_weight, &self.planes.class);
         b.plane.clear();
-        Self::class_weights(&mut self.per_class, &self.planes.class);
-        for i in 0..self.planes.len() {
-            let c = self.planes.class[i];
-            b.plane_x
-                .push(self.normalise(self.planes.xyz[i], self.planes.t[i]));
+        for (i, (class, weight)) in weighted.enumerate() {
             b.plane.push(PlaneSample {
-                class: c,
+                class,
                 target: self.planes.target[i] / sigma,
                 absent: self.planes.kind[i] == PlaneTarget::LowerBound,
-                weight: self.class_weight[c as usize] / self.per_class[c as usize] as f32,
+                weight,
             });
         }
-        b.space_x.clear();
-        for (x, &t) in self.space.xyz.iter().zip(&self.space.t) {
-            b.space_x.push(self.normalise(*x, t));
-        }
+        self.normalise_into(&self.space.xyz, &self.space.t, &mut b.space_x);
     }
 
     fn max_set_len(&self) -> usize {

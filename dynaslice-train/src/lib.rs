@@ -13,6 +13,8 @@
 //! - [`trainer`]: the loop, with its schedule, time limit and checkpoints.
 //! - [`model_file`]: a trained network's model file and the metadata it records.
 
+#![warn(missing_docs)]
+
 pub mod adam;
 pub mod bench;
 pub mod checkpoint;

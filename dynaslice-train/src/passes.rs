@@ -92,14 +92,13 @@ impl Workspace {
         assert!(tangents <= 3, "at most 3 tangent groups");
         let rows = capacity * (1 + tangents);
         let layout = &net.layout;
-        let widths = layout.widths();
         let widest = layout.max_width();
         Workspace {
             capacity,
             tangents,
-            z: widths.iter().map(|w| vec![0.0; rows * w]).collect(),
-            s: widths.iter().map(|w| vec![0.0; rows * w]).collect(),
-            cos: widths.iter().map(|w| vec![0.0; capacity * w]).collect(),
+            z: per_layer(net, rows),
+            s: per_layer(net, rows),
+            cos: per_layer(net, capacity),
             out: vec![0.0; rows * layout.num_classes()],
             g_a: vec![0.0; rows * widest],
             g_b: vec![0.0; rows * widest],
@@ -121,11 +120,7 @@ impl Workspace {
     /// which must have this workspace's tangent count (and one direction per point).
     pub fn forward(&mut self, net: &Network, inputs: &[[f32; INPUT_DIM]], tangents: Tangents) {
         let n = inputs.len();
-        assert!(
-            n <= self.capacity,
-            "{n} points > workspace capacity {}",
-            self.capacity
-        );
+        check_capacity(n, self.capacity);
         check_tangents(tangents, self.tangents, n);
         let layout = &net.layout;
         let t = self.tangents;
@@ -260,9 +255,8 @@ impl Workspace {
                 }
             } else {
                 let input = Mat::new(&self.s[l - 1][..rows * fan_in], rows, fan_in);
-                matmul(gw, true, input, Op::T, g_z, Op::N);
                 let wt = Mat::new(&p[off..off + fan_in * fan_out], fan_in, fan_out);
-                matmul(&mut g_next[..rows * fan_in], false, g_z, Op::N, wt, Op::T);
+                product_backward(input, g_z, wt, gw, &mut g_next[..rows * fan_in]);
                 std::mem::swap(&mut g_cur, &mut g_next);
             }
         }
@@ -349,6 +343,26 @@ pub(super) fn add_row_sums(gb: &mut [f32], g: &[f32]) {
     for grow in g.chunks_exact(gb.len()) {
         gb.iter_mut().zip(grow).for_each(|(a, b)| *a += b);
     }
+}
+
+/// Backward through a layer's product Z = S Wᵀ (+ b), `wt` being Wᵀ: adds ∂Wᵀ = Sᵀ Ḡ_Z to `gw`
+/// and writes Ḡ_S = Ḡ_Z W to `g_s`.
+#[inline]
+pub(super) fn product_backward(s: Mat, g_z: Mat, wt: Mat, gw: &mut [f32], g_s: &mut [f32]) {
+    matmul(gw, true, s, Op::T, g_z, Op::N);
+    matmul(g_s, false, g_z, Op::N, wt, Op::T);
+}
+
+/// One zeroed buffer of `rows` rows per sine layer (a workspace's per-layer storage).
+pub(super) fn per_layer(net: &Network, rows: usize) -> Vec<Vec<f32>> {
+    let widths = net.layout.widths();
+    widths.iter().map(|w| vec![0.0; rows * w]).collect()
+}
+
+/// Panics unless a workspace for `capacity` points holds `n` (a caller's bug, not bad data).
+#[track_caller]
+pub(super) fn check_capacity(n: usize, capacity: usize) {
+    assert!(n <= capacity, "{n} points > workspace capacity {capacity}");
 }
 
 fn check_tangents(tangents: Tangents, groups: usize, n: usize) {

@@ -27,7 +27,10 @@
 
 use super::matmul::{matmul, Mat, Op};
 use super::network::Network;
-use super::passes::{add_bias, add_row_sums, input_layer, input_layer_weight_grad, INPUT_DIM};
+use super::passes::{
+    add_bias, add_row_sums, check_capacity, input_layer, input_layer_weight_grad, per_layer,
+    product_backward, INPUT_DIM,
+};
 use super::simd::multiversion;
 use dynaslice_core::sine::sin_cos_with;
 
@@ -59,22 +62,15 @@ impl ReverseWorkspace {
     pub fn new(net: &Network, capacity: usize) -> ReverseWorkspace {
         let layout = &net.layout;
         let k = layout.num_classes();
-        let per_layer = |rows: usize| -> Vec<Vec<f32>> {
-            layout
-                .widths()
-                .iter()
-                .map(|w| vec![0.0; rows * w])
-                .collect()
-        };
         let stacked = capacity * k;
         ReverseWorkspace {
             capacity,
             classes: k,
-            sin: per_layer(capacity),
-            cos: per_layer(capacity),
-            p: per_layer(stacked),
-            q: per_layer(stacked),
-            z_bar: per_layer(capacity),
+            sin: per_layer(net, capacity),
+            cos: per_layer(net, capacity),
+            p: per_layer(net, stacked),
+            q: per_layer(net, stacked),
+            z_bar: per_layer(net, capacity),
             out: vec![0.0; 4 * capacity * k],
             g_a: vec![0.0; stacked * layout.max_width()],
             g_b: vec![0.0; stacked * layout.max_width()],
@@ -91,11 +87,7 @@ impl ReverseWorkspace {
     /// (x, y, z, t) per point).
     pub fn forward(&mut self, net: &Network, inputs: &[[f32; INPUT_DIM]]) {
         let n = inputs.len();
-        assert!(
-            n <= self.capacity,
-            "{n} points > workspace capacity {}",
-            self.capacity
-        );
+        check_capacity(n, self.capacity);
         let layout = &net.layout;
         let k = layout.num_classes();
         let sines = layout.num_sine_layers();
@@ -262,10 +254,9 @@ impl ReverseWorkspace {
         let f_bar = Mat::new(&g_out[..n * k], n, k);
         let (gw, gb) = grad[off..off + (w_last + 1) * k].split_at_mut(w_last * k);
         let s_last = Mat::new(&self.sin[sines - 1][..n * w_last], n, w_last);
-        matmul(gw, true, s_last, Op::T, f_bar, Op::N);
-        add_row_sums(gb, &g_out[..n * k]);
         let wt = Mat::new(&p[off..off + w_last * k], w_last, k);
-        matmul(&mut g_cur[..n * w_last], false, f_bar, Op::N, wt, Op::T);
+        product_backward(s_last, f_bar, wt, gw, &mut g_cur[..n * w_last]);
+        add_row_sums(gb, &g_out[..n * k]);
         for l in (0..sines).rev() {
             let (fan_in, fan_out) = layout.layer_dims(l);
             let off = layout.layer_offset(l);
@@ -281,9 +272,8 @@ impl ReverseWorkspace {
             } else {
                 let g_z = Mat::new(&g_cur[..n * fan_out], n, fan_out);
                 let input = Mat::new(&self.sin[l - 1][..n * fan_in], n, fan_in);
-                matmul(gw, true, input, Op::T, g_z, Op::N);
                 let wt = Mat::new(&p[off..off + fan_in * fan_out], fan_in, fan_out);
-                matmul(&mut g_next[..n * fan_in], false, g_z, Op::N, wt, Op::T);
+                product_backward(input, g_z, wt, gw, &mut g_next[..n * fan_in]);
                 std::mem::swap(&mut g_cur, &mut g_next);
             }
         }

@@ -6,6 +6,8 @@
 //! Memory is bounded by one frame: a frame's labels are computed (in parallel over z-slices),
 //! counted, encoded and written before the next frame is started.
 
+#![warn(missing_docs)]
+
 pub mod voxel_grid;
 
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};

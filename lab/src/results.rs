@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 /// Arguments of `dynaslice-lab results`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Markdown output (the trained models are written beside it, in <name>.models/).
+    /// Markdown output (the trained models are written beside it, in `<name>.models/`).
     #[arg(short, long, default_value = "lab/results/results.md")]
     output: PathBuf,
     /// Tables: synthetic (Table 3), multiclass (Table 2), static (.csl against reference meshes).

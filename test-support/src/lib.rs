@@ -1,7 +1,9 @@
 //! DynaSlice's shared test fixtures, a dev-dependency of the workspace's crates and never part of
-//! the product: an independent f64 evaluation of the network ([`reference`]), hand-built model
+//! the product: an independent f64 evaluation of the network ([`mod@reference`]), hand-built model
 //! files with closed-form answers ([`spheres`]), and input files and process helpers for
 //! command-line tests ([`fixtures`]).
+
+#![warn(missing_docs)]
 
 pub mod fixtures;
 pub mod reference;

@@ -8,12 +8,14 @@
 //! | STL (binary) | triangle soup (the format has no indices) | facet normals only | — |
 //! | VTP (VTK XML PolyData) | indexed | point data `Normals` | point data `normal_velocity` |
 
+mod files;
 mod obj;
 mod ply;
 pub mod pvd;
 mod stl;
 mod vtp;
 
+pub use files::{class_tag, MeshFiles};
 pub use stl::read_stl;
 
 use super::Mesh;

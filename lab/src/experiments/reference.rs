@@ -7,8 +7,8 @@ use super::{cell, fit, Fitted, Protocol};
 use anyhow::{Context, Result};
 use dynaslice_data::{csl, LabelNames, Sequence};
 use dynaslice_mesh::io::read_stl;
-use dynaslice_mesh::{self as mesh, Mesh, Surfaces};
-use dynaslice_metrics::chamfer::{self, bounding_diagonal};
+use dynaslice_mesh::Mesh;
+use dynaslice_metrics::chamfer;
 use dynaslice_metrics::inside::{grid_for, model_iou, padded_bounds};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -82,18 +82,8 @@ impl Case {
         .with_context(|| self.csl.display().to_string())?;
         let model = fitted.model();
         let t = model.domain().time_range().0;
-        let options = mesh::Options {
-            resolution: r.mesh,
-            surfaces: Surfaces::Partition,
-            ..mesh::Options::default()
-        };
-        let x = mesh::extract(&model, model.domain().bounds(), t, &[0], &options)?;
-        let cd = chamfer::chamfer(
-            &chamfer::samples(&x.meshes[0], r.samples, 0),
-            &chamfer::samples(&self.reference, r.samples, 1),
-            bounding_diagonal(&self.reference),
-        )
-        .map(|c| c.scaled());
+        let cd = chamfer::against_reference(&model, 0, t, &self.reference, r.mesh, r.samples)?
+            .map(|c| c.scaled());
         let bounds = padded_bounds(&self.reference, 0.05);
         let iou = model_iou(
             &model,
