@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Proves that dynaslice-core fits scanner firmware (issue 2; docs/firmware.md):
+# Proves that dynaslice-core fits scanner firmware (docs/firmware.md):
 #   (a) its direct normal dependencies are exactly bytemuck, half and libm;
 #   (b) it builds for a bare-metal Cortex-M4F target (thumbv7em-none-eabihf);
 #   (c) ALWAYS: as a #![no_std], panic = "abort" static library it links into a C program built

@@ -1,4 +1,4 @@
-//! `Model::from_bytes` against damaged and hostile files (issue 2).
+//! `Model::from_bytes` against damaged and hostile files (the core's promise: no panic on any input).
 //!
 //! The format promises three things that these tests pin down:
 //! 1. **Never a panic, never a read outside the buffer**, whatever the bytes: every test below

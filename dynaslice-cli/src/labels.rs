@@ -79,7 +79,7 @@ pub fn run(a: Args) -> Result<()> {
     });
     let mut last_log = Instant::now();
     let counts = pool.install(|| {
-        dynaslice_volume::write_volume(&model, &grid, &a.output, |f| match &bar {
+        dynaslice_volume::write_model_labels(&model, &grid, &a.output, |f| match &bar {
             Some(bar) => bar.set_position(f as u64 + 1),
             None if last_log.elapsed() >= Duration::from_secs(10) => {
                 eprintln!(

@@ -51,9 +51,9 @@ impl LabelVolume {
     }
 }
 
-/// Bytes of a NIfTI-1 header; the voxel data starts at `vox_offset`, at least 4 bytes later
-/// (the extender).
-const HEADER_BYTES: usize = 348;
+/// Bytes of a NIfTI-1 header (read here, written by [`crate::nifti_stream`]); the voxel data
+/// starts at `vox_offset`, at least 4 bytes later (the extender).
+pub(crate) const HEADER_SIZE: usize = 348;
 
 /// Deflate's largest expansion (one 258-byte match per two bits): a `.nii.gz` of n bytes cannot
 /// hold more than this × n bytes of NIfTI.
@@ -103,7 +103,7 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
     let affine = affine(&header).map_err(at)?;
     check_scaling(&header).map_err(at)?;
     let (start, size) = data_extent(&header, datatype, dims, frames, capacity, gz).map_err(at)?;
-    let skip = (start - HEADER_BYTES) as u64;
+    let skip = (start - HEADER_SIZE) as u64;
     let skipped = std::io::copy(&mut (&mut source).take(skip), &mut std::io::sink())
         .map_err(|e| unreadable(&e))?;
     // Exact for a plain file (its length was checked); a gzip stream grows with what it holds.
@@ -211,7 +211,7 @@ fn data_extent(
         )));
     }
     // Below the header and extender means right after them (as the nifti crate reads it).
-    let start = (offset as usize).max(HEADER_BYTES + 4);
+    let start = (offset as usize).max(HEADER_SIZE + 4);
     let size = dims
         .iter()
         .chain([&frames])

@@ -17,14 +17,13 @@
 //! The file is written beside its destination under a temporary name and renamed when the last
 //! frame is in, so an interrupted run never leaves a truncated volume under the real name.
 
+use crate::nifti::HEADER_SIZE;
 use anyhow::{bail, ensure, Context, Result};
 use flate2::write::GzEncoder;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// Size of the NIfTI-1 header.
-const HEADER_SIZE: usize = 348;
 /// Voxel data offset: the header and the 4-byte extension flag (no extensions).
 const VOX_OFFSET: usize = HEADER_SIZE + 4;
 /// `NIFTI_INTENT_LABEL`: voxel values are label indices.

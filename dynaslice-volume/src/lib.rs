@@ -80,7 +80,7 @@ pub fn label_indices(model: &Model, grid: &VoxelGrid, t: f64, out: &mut [u32]) -
 /// Writes `model`'s label volume on `grid` to `path` (`.nii` or `.nii.gz`), calling
 /// `on_frame(f)` after frame f is written. Returns the voxel count of each label index
 /// (0 = background, k = class k) per frame.
-pub fn write_volume(
+pub fn write_model_labels(
     model: &Model,
     grid: &VoxelGrid,
     path: &Path,
@@ -143,7 +143,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("labels.nii.gz");
         let mut seen = Vec::new();
-        let counts = write_volume(&model, &grid, &path, |f| seen.push(f)).unwrap();
+        let counts = write_model_labels(&model, &grid, &path, |f| seen.push(f)).unwrap();
         assert_eq!(seen, [0, 1, 2]);
         let back = read_volume(&path).unwrap();
         assert_eq!((back.dims, back.frames), (grid.dims, 3));
