@@ -3,7 +3,7 @@
 use anyhow::{bail, Context, Result};
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::reslice::ResliceOptions;
-use dynaslice_data::{csl, native, nifti, LabelNames, Sequence};
+use dynaslice_data::{csl, native, nifti, LabelTable, Sequence};
 use std::path::{Path, PathBuf};
 
 /// Options shared by every command that reads cross-sections.
@@ -36,8 +36,8 @@ pub struct InputArgs {
 /// Reads `args.input` and keeps the selected frames.
 pub fn read(args: &InputArgs) -> Result<Sequence> {
     let names = match &args.label_names {
-        Some(p) => LabelNames::read(p)?,
-        None => LabelNames::default(),
+        Some(p) => LabelTable::read(p)?,
+        None => LabelTable::default(),
     };
     let path = args.input.as_path();
     let name = path.to_string_lossy().to_ascii_lowercase();

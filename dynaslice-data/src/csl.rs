@@ -11,7 +11,7 @@
 //!
 //! # Labels and classes
 //! - A solid component's class is its label value; the sequence's classes are the distinct solid
-//!   labels of all its files, in increasing order, named by an optional [`LabelNames`] table.
+//!   labels of all its files, in increasing order, named by an optional [`LabelTable`] table.
 //! - A hole belongs to its parent's class. Its own label must equal the parent's, or be `2` under a
 //!   parent labelled `1`: upstream single-object files write 1 for solids and 2 for holes. Any
 //!   other pairing is an error, and so is the `2`-under-`1` pairing in a file that also has solids
@@ -43,8 +43,8 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use super::error::{DataError, ErrorKind, Result};
-use super::label_names::LabelNames;
-use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
+use super::label_table::LabelTable;
+use super::sequence::{cross, dot, Annotation, Frame, Plane, Rect, Sequence};
 use crate::geometry::polygon::contains;
 use crate::geometry::Polygon;
 
@@ -477,20 +477,14 @@ fn read_raw(path: &Path) -> Result<RawFile> {
 }
 
 /// Builds a sequence from parsed files and their times; errors carry file and timestep.
-fn build(files: Vec<(PathBuf, f64, RawFile)>, names: &LabelNames) -> Result<Sequence> {
+fn build(files: Vec<(PathBuf, f64, RawFile)>, names: &LabelTable) -> Result<Sequence> {
     let labels: Vec<i32> = files
         .iter()
         .flat_map(|(_, _, f)| solid_labels(f))
         .collect::<BTreeSet<_>>()
         .into_iter()
         .collect();
-    let classes = labels
-        .iter()
-        .map(|&label| ClassInfo {
-            name: names.name(label),
-            label,
-        })
-        .collect();
+    let classes = labels.iter().map(|&label| names.class(label)).collect();
     let mut frames = Vec::with_capacity(files.len());
     for (i, (path, time, file)) in files.iter().enumerate() {
         frames.push(
@@ -516,18 +510,18 @@ fn build(files: Vec<(PathBuf, f64, RawFile)>, names: &LabelNames) -> Result<Sequ
 
 /// Parses one `.csl` document held in memory as a single timestep at time 0 (`name` is used in
 /// error messages).
-pub fn parse(text: &str, name: &Path, names: &LabelNames) -> Result<Sequence> {
+pub fn parse(text: &str, name: &Path, names: &LabelTable) -> Result<Sequence> {
     let file = parse_file(text).map_err(|e| e.in_file(name))?;
     build(vec![(name.to_path_buf(), 0.0, file)], names)
 }
 
 /// Reads one `.csl` file as a static sequence (one timestep at time 0).
-pub fn read(path: &Path, names: &LabelNames) -> Result<Sequence> {
+pub fn read(path: &Path, names: &LabelTable) -> Result<Sequence> {
     build(vec![(path.to_path_buf(), 0.0, read_raw(path)?)], names)
 }
 
 /// Reads a sequence manifest (see the [module docs](self)) and the `.csl` files it lists.
-pub fn read_sequence(manifest: &Path, names: &LabelNames) -> Result<Sequence> {
+pub fn read_sequence(manifest: &Path, names: &LabelTable) -> Result<Sequence> {
     let text = std::fs::read_to_string(manifest)
         .map_err(|e| DataError::new(e.into()).in_file(manifest))?;
     let dir = manifest.parent().unwrap_or(Path::new("."));

@@ -20,7 +20,7 @@ pub mod csl;
 pub mod error;
 pub mod frame_range;
 pub mod geometry;
-pub mod label_names;
+pub mod label_table;
 pub mod native;
 pub mod nifti;
 pub mod nifti_stream;
@@ -31,6 +31,6 @@ pub mod time_series;
 
 pub use error::{DataError, ErrorKind, Location, Result};
 pub use frame_range::FrameRange;
-pub use label_names::LabelNames;
+pub use label_table::LabelTable;
 pub use sequence::{Aabb, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 pub use time_series::TimeSeries;

@@ -12,7 +12,7 @@ use std::path::Path;
 use nifti::{Endianness, NiftiHeader, NiftiType};
 
 use super::error::{DataError, ErrorKind, Result};
-use super::label_names::LabelNames;
+use super::label_table::LabelTable;
 use super::nifti_stream::{NiftiStream, VolumeHeader};
 use super::reslice::{reslice, ResliceOptions};
 use super::sequence::Sequence;
@@ -235,7 +235,7 @@ fn data_extent(
 }
 
 /// Reads a label volume and reslices it into a sequence (see [`super::reslice`]).
-pub fn read(path: &Path, options: &ResliceOptions, names: &LabelNames) -> Result<Sequence> {
+pub fn read(path: &Path, options: &ResliceOptions, names: &LabelTable) -> Result<Sequence> {
     let volume = read_volume(path)?;
     reslice(&volume, options, names).map_err(|e| e.in_file(path))
 }

@@ -13,7 +13,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use rayon::prelude::*;
 
 use super::error::{ErrorKind, Result};
-use super::label_names::LabelNames;
+use super::label_table::LabelTable;
 use super::nifti::{det3, LabelVolume};
 use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 use crate::geometry::marching_squares::contours;
@@ -74,7 +74,7 @@ struct GridPlane {
 pub fn reslice(
     volume: &LabelVolume,
     options: &ResliceOptions,
-    names: &LabelNames,
+    names: &LabelTable,
 ) -> Result<Sequence> {
     let frames = options.frames.indices(volume.frames);
     if frames.is_empty() {
@@ -132,13 +132,7 @@ pub fn reslice(
         return Err(ErrorKind::Empty("no nonzero label in the selected frames".into()).into());
     }
     let planes = protocol_planes(volume, options, lo, hi, &label_slices)?;
-    let classes: Vec<ClassInfo> = labels
-        .iter()
-        .map(|&label| ClassInfo {
-            name: names.name(label),
-            label,
-        })
-        .collect();
+    let classes: Vec<ClassInfo> = labels.iter().map(|&label| names.class(label)).collect();
     let jobs: Vec<(usize, usize)> = (0..frames.len())
         .flat_map(|fi| (0..planes.len()).map(move |pi| (fi, pi)))
         .collect();

@@ -30,6 +30,10 @@ pub struct ClassInfo {
     pub name: String,
     /// The label value the class has in its source (NIfTI voxel value, `.csl` label).
     pub label: i32,
+    /// Display colour (sRGB) where the source gives one (RTSTRUCT ROI Display Color,
+    /// `.seg.nrrd` segment colour); outputs use a fixed palette otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub color: Option<[u8; 3]>,
 }
 
 /// An axis-aligned rectangle in plane coordinates.

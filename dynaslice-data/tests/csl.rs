@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use dynaslice_data::geometry::polygon::signed_area;
-use dynaslice_data::{csl, ErrorKind, LabelNames};
+use dynaslice_data::{csl, ErrorKind, LabelTable};
 use dynaslice_test_support::fixtures::{
     csl_file, shared_data, SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE,
 };
@@ -16,7 +16,7 @@ fn square_with_hole() -> String {
 }
 
 fn parse(text: &str) -> dynaslice_data::Result<dynaslice_data::Sequence> {
-    csl::parse(text, Path::new("test.csl"), &LabelNames::default())
+    csl::parse(text, Path::new("test.csl"), &LabelTable::default())
 }
 
 #[test]
@@ -46,7 +46,7 @@ fn square_with_hole_single_object_convention() {
 fn multi_label_holes_carry_their_parents_label() {
     let hole_of_1 = SQUARE_WITH_HOLE_PLANE.replace("4h0 2 4 7 6 5", "4h0 1 4 7 6 5");
     let text = csl_file(2, &[hole_of_1.as_str(), TRIANGLE_PLANE]);
-    let names = LabelNames::parse("7 liver\n").unwrap();
+    let names = LabelTable::parse("7 liver\n").unwrap();
     let seq = csl::parse(&text, Path::new("m.csl"), &names).unwrap();
     let labels: Vec<i32> = seq.classes().iter().map(|c| c.label).collect();
     assert_eq!(labels, [1, 7]);
@@ -140,12 +140,12 @@ fn manifest_sequence_and_its_errors() {
     .unwrap();
     let manifest = dir.path().join("seq.txt");
     std::fs::write(&manifest, "# two phases\n0.0 a.csl\n\n0.25 b.csl\n").unwrap();
-    let seq = csl::read_sequence(&manifest, &LabelNames::default()).unwrap();
+    let seq = csl::read_sequence(&manifest, &LabelTable::default()).unwrap();
     assert_eq!(seq.frames().len(), 2);
     assert_eq!(seq.time_range(), (0.0, 0.25));
 
     std::fs::write(&manifest, "0.5 a.csl\n0.25 b.csl\n").unwrap();
-    let e = csl::read_sequence(&manifest, &LabelNames::default()).unwrap_err();
+    let e = csl::read_sequence(&manifest, &LabelTable::default()).unwrap_err();
     assert!(
         matches!(e.kind, ErrorKind::TimesNotIncreasing { .. }),
         "{e}"
@@ -158,19 +158,19 @@ fn manifest_sequence_and_its_errors() {
     )
     .unwrap();
     std::fs::write(&manifest, "0 a.csl\n1 bad.csl\n").unwrap();
-    let e = csl::read_sequence(&manifest, &LabelNames::default()).unwrap_err();
+    let e = csl::read_sequence(&manifest, &LabelTable::default()).unwrap_err();
     assert!(
         e.to_string().contains("bad.csl") && e.to_string().contains("timestep 1"),
         "{e}"
     );
 
     std::fs::write(&manifest, "0 a.csl\nzero b.csl\n").unwrap();
-    let e = csl::read_sequence(&manifest, &LabelNames::default()).unwrap_err();
+    let e = csl::read_sequence(&manifest, &LabelTable::default()).unwrap_err();
     assert!(e.to_string().contains("line 2"), "{e}");
     std::fs::write(&manifest, "# nothing\n").unwrap();
-    assert!(csl::read_sequence(&manifest, &LabelNames::default()).is_err());
+    assert!(csl::read_sequence(&manifest, &LabelTable::default()).is_err());
     std::fs::write(&manifest, "0 missing.csl\n").unwrap();
-    let e = csl::read_sequence(&manifest, &LabelNames::default()).unwrap_err();
+    let e = csl::read_sequence(&manifest, &LabelTable::default()).unwrap_err();
     assert!(
         matches!(e.kind, ErrorKind::Io(_)) && e.to_string().contains("missing.csl"),
         "{e}"
@@ -182,7 +182,7 @@ fn reads_every_upstream_file() {
     let Some(dir) = shared_data("csl") else {
         return;
     };
-    let names = LabelNames::default();
+    let names = LabelTable::default();
     let expect = [
         ("Heart-simplified.csl", 2, 1),
         ("SideBishop.csl", 10, 1),

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use dynaslice_data::geometry::polygon::signed_area;
 use dynaslice_data::nifti::{read, read_volume, write_volume, LabelVolume};
 use dynaslice_data::reslice::{reslice, ResliceOptions};
-use dynaslice_data::{ErrorKind, LabelNames};
+use dynaslice_data::{ErrorKind, LabelTable};
 use dynaslice_test_support::fixtures::shared_data;
 use nifti::NiftiHeader;
 
@@ -75,7 +75,7 @@ fn reslices_with_the_protocol_and_sub_voxel_contours() {
         axial_step: 3,
         ..Default::default()
     };
-    let names = LabelNames::parse("3 ball\n").unwrap();
+    let names = LabelTable::parse("3 ball\n").unwrap();
     let seq = reslice(&v, &opts, &names).unwrap();
     let labels: Vec<(String, i32)> = seq
         .classes()
@@ -156,7 +156,7 @@ fn frames_and_labels_are_selectable() {
         labels: Some(vec![5]),
         pixel: Some(1.0),
     };
-    let seq = reslice(&v, &opts, &LabelNames::default()).unwrap();
+    let seq = reslice(&v, &opts, &LabelTable::default()).unwrap();
     assert_eq!(seq.frames().len(), 1);
     assert_eq!(seq.frames()[0].time, 0.5);
     assert_eq!(seq.classes().len(), 1);
@@ -166,7 +166,7 @@ fn frames_and_labels_are_selectable() {
             labels: Some(vec![5, 9]),
             ..opts.clone()
         },
-        &LabelNames::default(),
+        &LabelTable::default(),
     )
     .unwrap_err();
     assert!(matches!(e.kind, ErrorKind::LabelAbsent(9)), "{e}");
@@ -176,7 +176,7 @@ fn frames_and_labels_are_selectable() {
             frames: "7:9".parse().unwrap(),
             ..opts
         },
-        &LabelNames::default(),
+        &LabelTable::default(),
     )
     .unwrap_err();
     assert!(matches!(e.kind, ErrorKind::Option(_)), "{e}");
@@ -257,7 +257,7 @@ fn malformed_volumes_are_rejected_with_the_file_named() {
         labels: vec![0; 40 * 30 * 20 * 3],
         ..volume()
     };
-    let e = reslice(&empty, &ResliceOptions::default(), &LabelNames::default()).unwrap_err();
+    let e = reslice(&empty, &ResliceOptions::default(), &LabelTable::default()).unwrap_err();
     assert!(matches!(e.kind, ErrorKind::Empty(_)), "{e}");
 }
 
@@ -297,7 +297,7 @@ fn reads_the_shared_totalsegmentator_volume() {
     };
     let v = read_volume(&path).unwrap();
     assert_eq!((v.dims, v.frames), ([122, 101, 30], 1));
-    let seq = read(&path, &ResliceOptions::default(), &LabelNames::default())
+    let seq = read(&path, &ResliceOptions::default(), &LabelTable::default())
         .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(seq.classes().len(), 41);
     // 20 rotated, 15 axial (every second of 30), and one through a label thinner than the step.

@@ -22,7 +22,7 @@ use std::time::Duration;
 
 use dynaslice_data::nifti::{self, LabelVolume};
 use dynaslice_data::reslice::ResliceOptions;
-use dynaslice_data::{csl, native, DataError, ErrorKind, LabelNames, Result, Sequence};
+use dynaslice_data::{csl, native, DataError, ErrorKind, LabelTable, Result, Sequence};
 use dynaslice_test_support::fixtures::{csl_file, SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -340,7 +340,7 @@ const CSL_NAME: &str = "mutated.csl";
 fn parse_csl(text: &str) -> (Result<Sequence>, usize) {
     let text = text.to_string();
     guarded("csl::parse", move || {
-        csl::parse(&text, Path::new(CSL_NAME), &LabelNames::default())
+        csl::parse(&text, Path::new(CSL_NAME), &LabelTable::default())
     })
 }
 
@@ -503,14 +503,14 @@ fn label_names_accept_any_whitespace_separator() {
         "1\u{85}spleen\n",
         "1\tspleen\n",
     ] {
-        let (t, _) = guarded("LabelNames::parse", move || LabelNames::parse(table));
+        let (t, _) = guarded("LabelTable::parse", move || LabelTable::parse(table));
         assert_eq!(t.unwrap().name(1), "spleen", "{table:?}");
     }
     // Commas and spaces in any order separate; what `to_text` writes reads back the same.
     for table in ["5 , ,x\n", "5,, ,x\n", "5, x\n", "5 ,x\n"] {
-        let t = LabelNames::parse(table).unwrap();
+        let t = LabelTable::parse(table).unwrap();
         assert_eq!(t.name(5), "x", "{table:?}");
-        assert_eq!(LabelNames::parse(&t.to_text()).unwrap(), t);
+        assert_eq!(LabelTable::parse(&t.to_text()).unwrap(), t);
     }
 }
 
@@ -526,10 +526,10 @@ proptest! {
         let mut text = apply_text(base, &edits);
         text.extend(noise);
         let owned = text.clone();
-        let (result, largest) = guarded("LabelNames::parse", move || LabelNames::parse(&owned));
-        bounded("LabelNames::parse", largest, text.len(), PER_TEXT_BYTE)?;
+        let (result, largest) = guarded("LabelTable::parse", move || LabelTable::parse(&owned));
+        bounded("LabelTable::parse", largest, text.len(), PER_TEXT_BYTE)?;
         match result {
-            Ok(table) => prop_assert_eq!(LabelNames::parse(&table.to_text()).unwrap(), table),
+            Ok(table) => prop_assert_eq!(LabelTable::parse(&table.to_text()).unwrap(), table),
             Err(e) => {
                 prop_assert!(e.location.line.is_some(), "{}", e);
                 names(&e, "line ")?;
@@ -953,7 +953,7 @@ proptest! {
         std::fs::write(&path, &bytes).unwrap();
         let owned: PathBuf = path.clone();
         let (result, _) = guarded("nifti::read", move || {
-            nifti::read(&owned, &ResliceOptions::default(), &LabelNames::default())
+            nifti::read(&owned, &ResliceOptions::default(), &LabelTable::default())
         });
         match result {
             Ok(seq) => revalidates(&seq)?,
@@ -967,7 +967,7 @@ fn nifti_read_control_reslices() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("control.nii");
     std::fs::write(&path, base_files().0).unwrap();
-    let seq = nifti::read(&path, &ResliceOptions::default(), &LabelNames::default()).unwrap();
+    let seq = nifti::read(&path, &ResliceOptions::default(), &LabelTable::default()).unwrap();
     assert_eq!(seq.classes().len(), 3, "labels 1, 2, 3");
     revalidates(&seq).unwrap();
 }
@@ -989,7 +989,7 @@ fn nifti_read_anisotropic_voxels_stay_small() {
     nifti::write_volume(&volume, &path).unwrap();
     let owned = path.clone();
     let (result, _) = guarded("nifti::read", move || {
-        nifti::read(&owned, &ResliceOptions::default(), &LabelNames::default())
+        nifti::read(&owned, &ResliceOptions::default(), &LabelTable::default())
     });
     let seq = result.unwrap();
     revalidates(&seq).unwrap();
@@ -999,6 +999,6 @@ fn nifti_read_anisotropic_voxels_stay_small() {
         pixel: Some(0.5),
         ..ResliceOptions::default()
     };
-    let e = nifti::read(&path, &fine, &LabelNames::default()).unwrap_err();
+    let e = nifti::read(&path, &fine, &LabelTable::default()).unwrap_err();
     assert!(e.to_string().contains("grid per plane"), "{e}");
 }

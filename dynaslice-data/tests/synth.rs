@@ -6,7 +6,7 @@ use dynaslice_data::reslice::ResliceOptions;
 use dynaslice_data::synth::{
     label_volume, slice_sequence, write_benchmark, BenchmarkOptions, Shape,
 };
-use dynaslice_data::{native, LabelNames};
+use dynaslice_data::{native, LabelTable};
 
 /// Coarse settings keep the test fast; the protocol's counts are unchanged.
 fn small() -> BenchmarkOptions {
@@ -71,7 +71,7 @@ fn written_benchmark_reads_back_through_both_paths() {
     assert_eq!(files.len(), 1);
     let slices = native::read(&files[0].slices).unwrap();
     assert_eq!(slices, slice_sequence(Shape::Chambers, &o).unwrap());
-    let names = LabelNames::read(&files[0].labels).unwrap();
+    let names = LabelTable::read(&files[0].labels).unwrap();
     let opts = ResliceOptions {
         frames: "0:37:4".parse().unwrap(),
         rotated: 6,

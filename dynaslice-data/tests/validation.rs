@@ -11,6 +11,7 @@ fn class(name: &str, label: i32) -> ClassInfo {
     ClassInfo {
         name: name.into(),
         label,
+        color: None,
     }
 }
 

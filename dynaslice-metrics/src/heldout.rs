@@ -300,6 +300,7 @@ mod tests {
         let classes = vec![ClassInfo {
             name: "ball".into(),
             label: 1,
+            color: None,
         }];
         Sequence::new(classes, frames).unwrap()
     }

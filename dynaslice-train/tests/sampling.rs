@@ -58,10 +58,12 @@ fn sequence() -> Sequence {
         ClassInfo {
             name: "ring".into(),
             label: 1,
+            color: None,
         },
         ClassInfo {
             name: "square".into(),
             label: 2,
+            color: None,
         },
     ];
     Sequence::new(classes, frames).unwrap()

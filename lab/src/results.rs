@@ -12,7 +12,7 @@ use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::nifti::read_volume;
 use dynaslice_data::reslice::{reslice, ResliceOptions};
 use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
-use dynaslice_data::LabelNames;
+use dynaslice_data::LabelTable;
 use dynaslice_metrics::benchmark::Resolution;
 use dynaslice_metrics::heldout::Split;
 use dynaslice_train::data_sampler::SampleCounts;
@@ -346,7 +346,7 @@ fn organs_case(data: &Path, organs: usize, pixels: usize) -> Result<multiclass::
         labels: Some(labels.clone()),
         ..ResliceOptions::default()
     };
-    let seq = reslice(&volume, &options, &LabelNames::default()).map_err(|e| e.in_file(&path))?;
+    let seq = reslice(&volume, &options, &LabelTable::default()).map_err(|e| e.in_file(&path))?;
     Ok(multiclass::Case {
         name: "TotalSegmentator CT segmentation (real, static)".into(),
         source: format!(

@@ -14,7 +14,7 @@ use super::shapes::Shape;
 use crate::geometry::marching_squares::contours;
 use crate::nifti::{write_volume, LabelVolume};
 use crate::{
-    native, Annotation, ClassInfo, DataError, Frame, LabelNames, Plane, Rect, Result, Sequence,
+    native, Annotation, ClassInfo, DataError, Frame, LabelTable, Plane, Rect, Result, Sequence,
 };
 
 /// Benchmark parameters; [`Default`] is the paper's protocol.
@@ -99,6 +99,7 @@ pub fn slice_sequence(shape: Shape, options: &BenchmarkOptions) -> Result<Sequen
         .map(|(k, name)| ClassInfo {
             name: name.to_string(),
             label: k as i32 + 1,
+            color: None,
         })
         .collect();
     let frames = (0..options.timesteps)
@@ -203,7 +204,7 @@ pub fn write_benchmark(
             };
             native::write(&slice_sequence(shape, options)?, &files.slices)?;
             write_volume(&label_volume(shape, options), &files.truth)?;
-            let mut names = LabelNames::default();
+            let mut names = LabelTable::default();
             for (k, name) in shape.class_names().iter().enumerate() {
                 names.insert(k as i32 + 1, *name);
             }

@@ -36,10 +36,12 @@ pub fn sample() -> Sequence {
         ClassInfo {
             name: "liver".into(),
             label: 5,
+            color: None,
         },
         ClassInfo {
             name: "kidney \"left\"".into(),
             label: -3,
+            color: None,
         },
     ];
     let frames = vec![

@@ -5,7 +5,7 @@
 
 use super::{cell, fit, Fitted, Protocol};
 use anyhow::{Context, Result};
-use dynaslice_data::{csl, LabelNames, Sequence};
+use dynaslice_data::{csl, LabelTable, Sequence};
 use dynaslice_mesh::io::read_stl;
 use dynaslice_mesh::Mesh;
 use dynaslice_metrics::chamfer;
@@ -52,7 +52,7 @@ impl Case {
     /// Reads `<dir>/<name>.csl` and `<dir>/<name>_reference.stl`.
     pub fn read(dir: &Path, name: &str) -> Result<Case> {
         let path = dir.join(format!("{name}.csl"));
-        let seq = csl::read(&path, &LabelNames::default())?;
+        let seq = csl::read(&path, &LabelTable::default())?;
         let reference = read_stl(&dir.join(format!("{name}_reference.stl")))?;
         Ok(Case {
             name: name.into(),

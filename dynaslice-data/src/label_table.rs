@@ -1,4 +1,4 @@
-//! Label-name tables: which name each source label value gets.
+//! Label tables: which name (and display colour) each source label value gets.
 //!
 //! Text, one entry per line: the label value, then the name (the rest of the line, trimmed), the
 //! two separated by whitespace or a comma. Blank lines and lines starting with `#` are ignored.
@@ -13,12 +13,16 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use super::error::{DataError, ErrorKind, Result};
+use super::sequence::ClassInfo;
 
-/// Label value → class name.
+/// Label value → class name and, where the source gives one, display colour.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct LabelNames(BTreeMap<i32, String>);
+pub struct LabelTable {
+    names: BTreeMap<i32, String>,
+    colors: BTreeMap<i32, [u8; 3]>,
+}
 
-impl LabelNames {
+impl LabelTable {
     /// Parses a table; errors name the line.
     pub fn parse(text: &str) -> Result<Self> {
         let mut map = BTreeMap::new();
@@ -47,7 +51,10 @@ impl LabelNames {
                 return Err(at(format!("label {value} is listed twice")));
             }
         }
-        Ok(LabelNames(map))
+        Ok(LabelTable {
+            names: map,
+            colors: BTreeMap::new(),
+        })
     }
 
     /// Reads a table file.
@@ -57,22 +64,49 @@ impl LabelNames {
         Self::parse(&text).map_err(|e| e.in_file(path))
     }
 
-    /// Adds or replaces an entry.
+    /// Adds or replaces an entry's name.
     pub fn insert(&mut self, label: i32, name: impl Into<String>) {
-        self.0.insert(label, name.into());
+        self.names.insert(label, name.into());
+    }
+
+    /// Adds or replaces an entry's display colour (sRGB).
+    pub fn insert_color(&mut self, label: i32, color: [u8; 3]) {
+        self.colors.insert(label, color);
+    }
+
+    /// Whether the table has no entry.
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty() && self.colors.is_empty()
     }
 
     /// The name of `label`: its entry, or `label <value>`.
     pub fn name(&self, label: i32) -> String {
-        self.0
+        self.names
             .get(&label)
             .cloned()
             .unwrap_or_else(|| format!("label {label}"))
     }
 
-    /// Serialises the table in the format [`LabelNames::parse`] reads.
+    /// The display colour of `label`, if the table has one.
+    pub fn color(&self, label: i32) -> Option<[u8; 3]> {
+        self.colors.get(&label).copied()
+    }
+
+    /// The class `label` becomes: its name and colour from the table.
+    pub fn class(&self, label: i32) -> ClassInfo {
+        ClassInfo {
+            name: self.name(label),
+            label,
+            color: self.color(label),
+        }
+    }
+
+    /// Serialises the names in the format [`LabelTable::parse`] reads.
     pub fn to_text(&self) -> String {
-        self.0.iter().map(|(v, n)| format!("{v} {n}\n")).collect()
+        self.names
+            .iter()
+            .map(|(v, n)| format!("{v} {n}\n"))
+            .collect()
     }
 }
 
@@ -82,20 +116,20 @@ mod tests {
 
     #[test]
     fn parses_both_separators_and_round_trips() {
-        let t = LabelNames::parse("# c\n1 spleen\n\n5, right kidney\n").unwrap();
+        let t = LabelTable::parse("# c\n1 spleen\n\n5, right kidney\n").unwrap();
         assert_eq!(t.name(1), "spleen");
         assert_eq!(t.name(5), "right kidney");
         assert_eq!(t.name(7), "label 7");
-        assert_eq!(LabelNames::parse(&t.to_text()).unwrap(), t);
+        assert_eq!(LabelTable::parse(&t.to_text()).unwrap(), t);
     }
 
     #[test]
     fn errors_name_the_line() {
-        let e = LabelNames::parse("1 a\n1 b\n").unwrap_err();
+        let e = LabelTable::parse("1 a\n1 b\n").unwrap_err();
         assert_eq!(e.location.line, Some(2));
         assert!(e.to_string().contains("twice"), "{e}");
-        let e = LabelNames::parse("x liver\n").unwrap_err();
+        let e = LabelTable::parse("x liver\n").unwrap_err();
         assert!(e.to_string().contains("line 1"), "{e}");
-        assert!(LabelNames::parse("3\n").is_err());
+        assert!(LabelTable::parse("3\n").is_err());
     }
 }
