@@ -8,6 +8,7 @@ use dynaslice_data::nifti::{read, read_volume, write_volume, LabelVolume};
 use dynaslice_data::reslice::{reslice, ResliceOptions};
 use dynaslice_data::{ErrorKind, LabelTable};
 use dynaslice_test_support::fixtures::shared_data;
+use dynaslice_test_support::python::run_python;
 use nifti::NiftiHeader;
 
 /// Anisotropic voxels, rotated 90° about z and shifted: exercises the affine end to end.
@@ -304,36 +305,6 @@ fn reads_the_shared_totalsegmentator_volume() {
     assert_eq!(seq.frames()[0].planes.len(), 20 + 15 + 1);
 }
 
-/// Runs a Python `script` (with `args`) when python3 can import nibabel, and returns its stdout;
-/// `None`, with a notice, when it cannot. CI installs nibabel and sets DYNASLICE_REQUIRE_NIBABEL,
-/// so there a missing nibabel is a failure, not a skip.
-fn with_nibabel(script: &str, args: &[&Path]) -> Option<String> {
-    let importable = std::process::Command::new("python3")
-        .args(["-c", "import nibabel"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !importable {
-        assert!(
-            std::env::var_os("DYNASLICE_REQUIRE_NIBABEL").is_none(),
-            "nibabel is not importable but DYNASLICE_REQUIRE_NIBABEL is set"
-        );
-        println!("SKIPPED nibabel interoperability: `python3 -c 'import nibabel'` fails");
-        return None;
-    }
-    let out = std::process::Command::new("python3")
-        .arg("-c")
-        .arg(script)
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    Some(String::from_utf8(out.stdout).unwrap())
-}
-
 /// nibabel, the reference NIfTI implementation of the Python imaging world, reads our files
 /// with the same voxels, affine and frame interval, and we read its files (qform only, 4D,
 /// int16, gzipped) with the same labels and world map.
@@ -354,7 +325,7 @@ print(json.dumps({
     "labels": np.asarray(img.dataobj).ravel(order="F").astype(int).tolist(),
 }))
 "#;
-    let Some(text) = with_nibabel(read_ours, &[&ours]) else {
+    let Some(text) = run_python(&["nibabel"], read_ours, &[&ours]) else {
         return;
     };
     let seen: serde_json::Value = serde_json::from_str(&text).unwrap();
@@ -391,7 +362,7 @@ img.header.set_xyzt_units("mm", "sec")
 img.header["pixdim"][4] = 0.25
 nib.save(img, sys.argv[1])
 "#;
-    with_nibabel(write_theirs, &[&theirs]).unwrap();
+    run_python(&["nibabel"], write_theirs, &[&theirs]).unwrap();
     let back = read_volume(&theirs).unwrap();
     assert_eq!((back.dims, back.frames), ([6, 5, 4], 2));
     assert_eq!(back.frame_interval, 0.25);
