@@ -147,6 +147,15 @@ pub enum ErrorKind {
     /// A NIfTI file that is not a label volume this reader accepts.
     #[error("NIfTI: {0}")]
     Nifti(String),
+    /// A DICOM file that is not an RT Structure Set this reader accepts.
+    #[error("DICOM: {0}")]
+    Dicom(String),
+    /// An NRRD file that is not a label map this reader accepts.
+    #[error("NRRD: {0}")]
+    Nrrd(String),
+    /// Several inputs that cannot be combined into one sequence (time grids, frames, classes).
+    #[error("inputs do not combine: {0}")]
+    Combine(String),
     /// A requested label that no selected frame of the volume contains.
     #[error("label {0} is absent from every selected frame")]
     LabelAbsent(i32),
