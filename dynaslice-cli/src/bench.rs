@@ -1,6 +1,8 @@
 //! `dynaslice bench`: training-step throughput against this machine's sgemm peak.
 
-use anyhow::Result;
+use super::options::{count, MAX_REPEATS, MAX_SAMPLES_PER_STEP, MAX_THREADS};
+use anyhow::{bail, Result};
+use dynaslice_core::format::{MAX_CLASSES, MAX_SINE_LAYERS, MAX_WIDTH};
 use dynaslice_train::bench;
 use dynaslice_train::objective::SpaceTimeScheme;
 
@@ -8,22 +10,24 @@ use dynaslice_train::objective::SpaceTimeScheme;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Widths of the sine layers (the paper's size: 4 layers of 256, ~200K parameters).
-    #[arg(long, value_delimiter = ',', default_value = "256,256,256,256")]
+    #[arg(long, value_delimiter = ',', default_value = "256,256,256,256",
+          value_parser = count(1, MAX_WIDTH as u32))]
     widths: Vec<u32>,
     /// Class counts to measure.
-    #[arg(long, value_delimiter = ',', default_value = "1,2,8")]
+    #[arg(long, value_delimiter = ',', default_value = "1,2,8",
+          value_parser = count(1, MAX_CLASSES))]
     classes: Vec<usize>,
     /// Contour and plane samples per class.
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = 4096, value_parser = count(1, MAX_SAMPLES_PER_STEP))]
     per_class: usize,
     /// Space-time samples.
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = 4096, value_parser = count(1, MAX_SAMPLES_PER_STEP))]
     space: usize,
     /// Worker threads.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = count(1, MAX_THREADS))]
     threads: usize,
     /// Timed repetitions (the median is reported).
-    #[arg(long, default_value_t = 7)]
+    #[arg(long, default_value_t = 7, value_parser = count(1, MAX_REPEATS))]
     repeats: usize,
 }
 
@@ -31,6 +35,12 @@ pub struct Args {
 /// (`SpaceTimeScheme::cheapest`), marked `*`. "hinge": the contour points whose orientation
 /// term was active, whose tangent backward therefore ran.
 pub fn run(a: Args) -> Result<()> {
+    if a.widths.is_empty() || a.widths.len() > MAX_SINE_LAYERS {
+        bail!(
+            "--widths: {} layers; a model has 1 to {MAX_SINE_LAYERS} sine layers",
+            a.widths.len()
+        );
+    }
     let peak = bench::sgemm_peak(a.threads, a.repeats);
     println!(
         "sgemm peak (gemm crate, 1024³): {:.1} GFLOP/s on 1 thread, {:.1} on {} threads",

@@ -1,32 +1,36 @@
 //! `dynaslice demo`: the main job on the built-in default data, as a script of ordinary
 //! subcommands (each printed before it runs, so the demo also shows how to use the tool).
 
+use super::options::{
+    count, positive_f64_to, MAX_CHAMFER_SAMPLES, MAX_MESH_RESOLUTION, MAX_MINUTES, MAX_STEPS,
+};
 use super::run_line;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use std::path::PathBuf;
 use std::time::Instant;
 
 /// Arguments of `dynaslice demo`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Output directory.
+    /// Output directory (a second run replaces the first one's outputs there).
     #[arg(short, long, default_value = "dynaslice-demo")]
     output: PathBuf,
     /// Training steps (the learning-rate schedule spans them).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = count(1, MAX_STEPS))]
     steps: u64,
     /// Upper bound on training time, minutes.
-    #[arg(long, default_value_t = 4.0)]
+    #[arg(long, default_value_t = 4.0, value_parser = positive_f64_to(MAX_MINUTES), allow_negative_numbers = true)]
     minutes: f64,
     /// Widths of the sine layers.
     #[arg(long, default_value = "256,256,256,256")]
     widths: String,
     /// Mesh resolution (cells along the longest axis), also the cells per axis of the 3D IoU
     /// grid; the exact shapes are meshed at twice this for the Chamfer distance.
-    #[arg(long, default_value_t = 96)]
+    #[arg(long, default_value_t = 96, value_parser = count(1, MAX_MESH_RESOLUTION / 2))]
     resolution: u32,
     /// Area-uniform samples per surface for the Chamfer distance.
-    #[arg(long, default_value_t = dynaslice_metrics::chamfer::DEFAULT_SAMPLES)]
+    #[arg(long, default_value_t = dynaslice_metrics::chamfer::DEFAULT_SAMPLES,
+          value_parser = count(1, MAX_CHAMFER_SAMPLES))]
     samples: usize,
 }
 
@@ -35,6 +39,9 @@ pub struct Args {
 /// `--output`.
 pub fn run(a: Args) -> Result<()> {
     let start = Instant::now();
+    // The subcommands write into existing folders only; the demo's own folder it makes.
+    std::fs::create_dir_all(&a.output)
+        .with_context(|| format!("cannot create directory {}", a.output.display()))?;
     let out = |p: &str| a.output.join(p).to_string_lossy().into_owned();
     let slices = out("data/chambers/slices.json");
     let truth = out("data/chambers/truth.nii.gz");
@@ -46,6 +53,7 @@ pub fn run(a: Args) -> Result<()> {
             out("data"),
             "--shape".into(),
             "chambers".into(),
+            "--force".into(),
         ],
         vec![
             "train".into(),
@@ -58,6 +66,7 @@ pub fn run(a: Args) -> Result<()> {
             a.minutes.to_string(),
             "--widths".into(),
             a.widths.clone(),
+            "--force".into(),
         ],
         vec![
             "mesh".into(),
@@ -78,6 +87,7 @@ pub fn run(a: Args) -> Result<()> {
             truth,
             "-o".into(),
             out("labels.nii.gz"),
+            "--force".into(),
         ],
         vec![
             "eval".into(),

@@ -2,8 +2,16 @@
 //! mesh), on held-out slices, and its class volumes over time. Definitions: docs/metrics.md.
 
 use super::input::{self, InputArgs};
+use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
-use anyhow::{bail, Context, Result};
+use super::options::{
+    count, finite_f32, time_series, MAX_CHAMFER_SAMPLES, MAX_IOU_RESOLUTION, MAX_MESH_RESOLUTION,
+    MAX_PIXELS, MAX_TIMES,
+};
+use super::output::{regular_file, write_via, Kind, Plan};
+use anyhow::{anyhow, bail, Context, Result};
+use dynaslice_core::format::MAX_CLASSES;
+use dynaslice_data::atomic::write_atomically;
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::native;
 use dynaslice_data::synth::{BenchmarkOptions, Shape};
@@ -14,6 +22,8 @@ use dynaslice_metrics::chamfer::{self, DEFAULT_SAMPLES};
 use dynaslice_metrics::heldout::{self, Split, DEFAULT_PIXELS};
 use dynaslice_metrics::volume::volume_curve;
 use dynaslice_metrics::Frames;
+use dynaslice_train::data_sampler::domain_for;
+use dynaslice_train::model_file::check_model_limits;
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice eval`.
@@ -59,20 +69,22 @@ struct SyntheticArgs {
     #[arg(long, default_value = "0::4", value_name = "A:B:STEP")]
     annotated: FrameRange,
     /// Cells per axis of the IoU grid over [−1, 1]³.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, value_parser = count(1, MAX_IOU_RESOLUTION))]
     resolution: usize,
     /// Lattice cells per axis for the model's meshes.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
     mesh_resolution: u32,
     /// Lattice cells per axis for the exact shapes' meshes.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, value_parser = count(1, MAX_MESH_RESOLUTION))]
     truth_resolution: u32,
     /// Area-uniform samples per surface for the Chamfer distance.
-    #[arg(long, default_value_t = DEFAULT_SAMPLES)]
+    #[arg(long, default_value_t = DEFAULT_SAMPLES, value_parser = count(1, MAX_CHAMFER_SAMPLES))]
     samples: usize,
     /// Per-frame CSV (IoU and CD×10⁴ per class).
     #[arg(long)]
     csv: Option<PathBuf>,
+    #[command(flatten)]
+    memory: MemoryArgs,
 }
 
 #[derive(clap::Args, Debug)]
@@ -81,17 +93,17 @@ struct ReferenceArgs {
     model: PathBuf,
     /// Reference surface (.stl, binary or ASCII), in the model's world coordinates.
     reference: PathBuf,
-    /// World time of the model's surface (default: the start of its time range).
-    #[arg(long, allow_negative_numbers = true)]
-    time: Option<f64>,
+    /// World time of the model's surface, within its time range (default: its start).
+    #[arg(long, allow_negative_numbers = true, value_parser = finite_f32)]
+    time: Option<f32>,
     /// Class compared with the reference, 1..K.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = count(1, MAX_CLASSES))]
     class: usize,
     /// Lattice cells along the longest axis of the model's domain.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
     mesh_resolution: u32,
     /// Area-uniform samples per surface.
-    #[arg(long, default_value_t = DEFAULT_SAMPLES)]
+    #[arg(long, default_value_t = DEFAULT_SAMPLES, value_parser = count(1, MAX_CHAMFER_SAMPLES))]
     samples: usize,
 }
 
@@ -124,8 +136,10 @@ struct HeldoutArgs {
     #[command(flatten)]
     holdout: Holdout,
     /// Pixels along the longer side of each plane's region of interest.
-    #[arg(long, default_value_t = DEFAULT_PIXELS)]
+    #[arg(long, default_value_t = DEFAULT_PIXELS, value_parser = count(2, MAX_PIXELS))]
     pixels: usize,
+    #[command(flatten)]
+    memory: MemoryArgs,
 }
 
 #[derive(clap::Args, Debug)]
@@ -137,6 +151,9 @@ struct SplitArgs {
     /// Output training input (.json).
     #[arg(short, long)]
     output: PathBuf,
+    /// Replace an existing file.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -144,12 +161,13 @@ struct VolumeArgs {
     /// Model file (.dsm).
     model: PathBuf,
     /// N times evenly from A to B inclusive (default: the model's time range in 20 steps).
-    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true)]
+    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
+          value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Lattice cells along the longest axis of the model's domain.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
     resolution: u32,
-    /// Output CSV; the chart is written beside it as .png.
+    /// Output CSV (.csv); the chart is written beside it as .png.
     #[arg(short, long)]
     output: PathBuf,
 }
@@ -170,6 +188,9 @@ fn fmt(v: Option<f64>, digits: usize) -> String {
 }
 
 fn synthetic(a: SyntheticArgs) -> Result<()> {
+    if let Some(csv) = &a.csv {
+        Plan::new([&a.model], true).file("--csv", csv, Kind::Csv)?;
+    }
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
     let shape = a.shape;
@@ -184,6 +205,20 @@ fn synthetic(a: SyntheticArgs) -> Result<()> {
         );
     }
     let bench = BenchmarkOptions::default();
+    // The exact surfaces' samples (3 f64 each) of every frame and class, held throughout, and
+    // one truth meshing lattice at a time (f64 per vertex and class, hash-map entry).
+    let classes = names.len() as f64;
+    let samples = bench.timesteps as f64 * classes * a.samples as f64 * 24.0;
+    let lattice = (f64::from(a.truth_resolution) + 1.0).powi(3) * (8.0 * classes + 48.0);
+    memory::check(
+        &format!(
+            "--samples {} at --truth-resolution {}",
+            a.samples, a.truth_resolution
+        ),
+        samples + lattice,
+        "lower --samples or --truth-resolution",
+        a.memory,
+    )?;
     let annotated_frames = a.annotated.indices(bench.timesteps);
     let resolution = Resolution {
         iou: a.resolution,
@@ -227,7 +262,7 @@ fn synthetic(a: SyntheticArgs) -> Result<()> {
     }
     if let Some(path) = &a.csv {
         let s = Scores { iou, cd }.to_csv(names);
-        std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))?;
+        write_atomically(path, s.as_bytes())?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())
@@ -237,6 +272,13 @@ fn reference(a: ReferenceArgs) -> Result<()> {
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
     let k = model.num_classes();
+    let t = match a.time {
+        Some(t) => {
+            file.check_time("--time", t)?;
+            t
+        }
+        None => model.domain().time_range().0,
+    };
     if !(1..=k).contains(&a.class) {
         bail!(
             "{}: --class {} but the model has classes 1..{k}",
@@ -244,15 +286,12 @@ fn reference(a: ReferenceArgs) -> Result<()> {
             a.class
         );
     }
-    if a.samples == 0 {
-        bail!("--samples 0: the Chamfer distance needs at least 1 sample per surface");
-    }
+    regular_file("reference mesh", &a.reference)?;
     let reference = dynaslice_mesh::io::read_stl(&a.reference)?;
-    let t = a.time.unwrap_or(f64::from(model.domain().time_range().0));
     let cd = chamfer::against_reference(
         &model,
         a.class - 1,
-        t as f32,
+        t,
         &reference,
         a.mesh_resolution,
         a.samples,
@@ -279,10 +318,18 @@ fn reference(a: ReferenceArgs) -> Result<()> {
 fn held_out(a: HeldoutArgs) -> Result<()> {
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
+    // One row of points, times and labels (20 bytes a pixel) per worker thread.
+    let threads = rayon::current_num_threads() as f64;
+    memory::check(
+        &format!("--pixels {}", a.pixels),
+        a.pixels as f64 * 20.0 * threads,
+        "lower --pixels",
+        a.memory,
+    )?;
     let seq = input::read(&a.input)?;
     let split = a.holdout.split();
     let scores = heldout::held_out(&model, &seq, &split, a.pixels)
-        .with_context(|| format!("{} on {}", a.model.display(), a.input.input.display()))?;
+        .with_context(|| format!("{} on {}", a.model.display(), a.input.describe()))?;
     let names: Vec<&str> = seq.classes().iter().map(|c| c.name.as_str()).collect();
     println!(
         "2D IoU on withheld slices ({} pixels along each region's longer side)",
@@ -306,13 +353,18 @@ fn held_out(a: HeldoutArgs) -> Result<()> {
 }
 
 fn split(a: SplitArgs) -> Result<()> {
+    let inputs = a.input.inputs.iter().chain(&a.input.label_names);
+    Plan::new(inputs, a.force).file("-o", &a.output, Kind::TrainingInput)?;
     let seq = input::read(&a.input)?;
     let train = a
         .holdout
         .split()
         .training(&seq)
-        .with_context(|| format!("{}", a.input.input.display()))?;
-    native::write(&train, &a.output)?;
+        .with_context(|| a.input.describe())?;
+    // Refused now, not after `dynaslice train` has read it.
+    check_model_limits(train.classes(), &domain_for(&train))
+        .map_err(|e| anyhow!("{}: {e}", a.input.describe()))?;
+    write_atomically(&a.output, native::to_json(&train).as_bytes())?;
     let planes =
         |s: &dynaslice_data::Sequence| s.frames().iter().map(|f| f.planes.len()).sum::<usize>();
     eprintln!(
@@ -327,6 +379,10 @@ fn split(a: SplitArgs) -> Result<()> {
 }
 
 fn volume(a: VolumeArgs) -> Result<()> {
+    let png = a.output.with_extension("png");
+    let mut plan = Plan::new([&a.model], true);
+    plan.file("-o", &a.output, Kind::Csv)?;
+    plan.beside(&png)?;
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
     let times = match a.times {
@@ -338,11 +394,22 @@ fn volume(a: VolumeArgs) -> Result<()> {
                 .times()
         }
     };
+    for &t in &times {
+        file.check_time("--times", t as f32)?;
+    }
     let curve = volume_curve(&model, &times, a.resolution)?;
-    curve.write_csv(&a.output)?;
-    let png = a.output.with_extension("png");
+    write_via(&a.output, |tmp| curve.write_csv(tmp))?;
     let title = format!("class volumes of {}", a.model.display());
-    volume_chart(&png, &title, &curve.classes, &curve.times, &curve.volumes)?;
+    write_via(&png, |tmp| {
+        volume_chart(
+            tmp,
+            &title,
+            &curve.classes,
+            &[],
+            &curve.times,
+            &curve.volumes,
+        )
+    })?;
     eprintln!("wrote {} and {}", a.output.display(), png.display());
     for (c, name) in curve.classes.iter().enumerate() {
         let v: Vec<f64> = curve.volumes.iter().map(|v| v[c]).collect();

@@ -1,91 +1,96 @@
-//! Reading a training input of any supported kind, chosen by its file name.
+//! The input options every command that reads cross-sections shares, and reading them through
+//! [`dynaslice_data::input`].
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
+use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
 use dynaslice_data::frame_range::FrameRange;
+use dynaslice_data::input::{self, InputOptions};
 use dynaslice_data::reslice::ResliceOptions;
-use dynaslice_data::{csl, native, nifti, LabelTable, Sequence};
-use std::path::{Path, PathBuf};
+use dynaslice_data::rtstruct::RoiExtent;
+use dynaslice_data::{LabelTable, Sequence};
+use std::path::PathBuf;
+
+use crate::options::{count, positive_f64};
+
+/// Most rotated planes a label map is resliced into (the paper uses 20).
+const MAX_ROTATED_PLANES: usize = 1000;
 
 /// Options shared by every command that reads cross-sections.
 #[derive(clap::Args, Debug, Clone)]
 pub struct InputArgs {
-    /// Cross-sections: native JSON (.json), a .csl file, a .csl sequence manifest (.cslseq), or
-    /// a 3D/4D NIfTI label volume (.nii, .nii.gz) resliced per the paper's protocol.
-    pub input: PathBuf,
+    /// Cross-sections: native JSON (.json), a .csl file, a DICOM RT Structure Set, a sequence
+    /// manifest (.seq, .cslseq: `<time> <path>` lines of single-timestep inputs), or label maps
+    /// (.nii, .nii.gz, .nrrd, .nhdr, .seg.nrrd). Several inputs are views of one subject at the
+    /// same times (e.g. a short-axis stack and long-axis views).
+    #[arg(required = true, value_name = "INPUT")]
+    pub inputs: Vec<PathBuf>,
     /// Frames to use, A:B:STEP (Python slice; e.g. 0:37:4 = every 4th of 37).
     #[arg(long, default_value = "0:", value_name = "A:B:STEP")]
     pub frames: FrameRange,
     /// Label-name table ("<label> <name>" per line) for inputs that carry label numbers only.
     #[arg(long, value_name = "FILE")]
     pub label_names: Option<PathBuf>,
-    /// NIfTI: planes rotated about the volume's z axis through the labelled region's centre.
-    #[arg(long, default_value_t = ResliceOptions::default().rotated)]
+    /// Label maps: how they become planes. `slices`: every slice of the image as drawn (cine
+    /// short-axis stacks, long-axis views); `sparse`: only the slices that carry labels, along any
+    /// voxel axis, the rest unobserved (a few slices drawn in Slicer or ITK-SNAP); `reslice`: the
+    /// paper's protocol for dense segmentations; `auto`: slices for 3 slices or fewer or slices
+    /// at least 2× thicker than the pixels, sparse for sparsely drawn maps, reslice otherwise.
+    #[arg(long, default_value_t = PlaneMode::Auto, value_name = "auto|slices|reslice|sparse")]
+    pub planes: PlaneMode,
+    /// Sparsely drawn label maps: the voxel axes drawn on (`auto` detects them; `k`, `i,k`, …).
+    #[arg(long, default_value_t = SparseAxes::Detect, value_name = "auto|AXES")]
+    pub drawn_axes: SparseAxes,
+    /// RT Structure Sets: `file` takes each ROI as contoured on every contour plane of its file
+    /// (absent where it has no contour); `own` only between its own first and last contour.
+    #[arg(long, default_value_t = RoiExtent::File, value_name = "file|own")]
+    pub roi_extent: RoiExtent,
+    /// Label maps: planes rotated about the volume's z axis through the labelled region's centre.
+    #[arg(long, default_value_t = ResliceOptions::default().rotated,
+          value_parser = count(0, MAX_ROTATED_PLANES))]
     pub rotated_planes: usize,
-    /// NIfTI: use every k-th axial slice of the labelled range (0: none).
-    #[arg(long, default_value_t = ResliceOptions::default().axial_step)]
+    /// Label maps: use every k-th axial slice of the labelled range (0: none).
+    #[arg(long, default_value_t = ResliceOptions::default().axial_step,
+          value_parser = count(0, usize::MAX))]
     pub axial_step: usize,
-    /// NIfTI: label values to reconstruct, one class each (default: every nonzero label).
+    /// Label maps: label values to reconstruct, one class each (default: every nonzero label).
     #[arg(long, value_delimiter = ',')]
     pub labels: Option<Vec<i32>>,
-    /// NIfTI: in-plane sampling step of the resliced planes, world units (default: half the
+    /// Label maps: in-plane sampling step of the resliced planes, world units (default: half the
     /// smallest voxel spacing, or the labelled box's longest diagonal / 1536 where coarser).
-    #[arg(long)]
+    #[arg(long, value_parser = positive_f64)]
     pub pixel: Option<f64>,
 }
 
-/// Reads `args.input` and keeps the selected frames.
+impl InputArgs {
+    /// The inputs for messages: `a.nii.gz`, or `a.nii.gz + b.nii.gz`.
+    pub fn describe(&self) -> String {
+        self.inputs
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(" + ")
+    }
+}
+
+/// Reads the inputs and keeps the selected frames.
 pub fn read(args: &InputArgs) -> Result<Sequence> {
-    let names = match &args.label_names {
+    let table = match &args.label_names {
         Some(p) => LabelTable::read(p)?,
         None => LabelTable::default(),
     };
-    let path = args.input.as_path();
-    let name = path.to_string_lossy().to_ascii_lowercase();
-    if name.ends_with(".nii") || name.ends_with(".nii.gz") {
-        let options = ResliceOptions {
+    let options = InputOptions {
+        frames: args.frames,
+        table,
+        planes: args.planes,
+        sparse_axes: args.drawn_axes,
+        roi_extent: args.roi_extent,
+        reslice: ResliceOptions {
             rotated: args.rotated_planes,
             axial_step: args.axial_step,
-            frames: args.frames,
+            frames: FrameRange::ALL,
             labels: args.labels.clone(),
             pixel: args.pixel,
-        };
-        return Ok(nifti::read(path, &options, &names)?);
-    }
-    let seq = match extension(path).as_str() {
-        "json" => native::read(path)?,
-        "csl" => csl::read(path, &names)?,
-        "cslseq" => csl::read_sequence(path, &names)?,
-        other => bail!(
-            "{}: unsupported input type {other:?} (expected .json, .csl, .cslseq, .nii or .nii.gz)",
-            path.display()
-        ),
+        },
     };
-    select_frames(seq, args.frames)
-        .with_context(|| format!("{}: --frames {}", path.display(), args.frames))
-}
-
-fn extension(path: &Path) -> String {
-    path.extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default()
-}
-
-/// The sequence restricted to `range`'s frames (an error if none is left).
-pub fn select_frames(seq: Sequence, range: FrameRange) -> Result<Sequence> {
-    if range == FrameRange::ALL {
-        return Ok(seq);
-    }
-    let count = seq.frames().len();
-    let keep = range.indices(count);
-    if keep.is_empty() {
-        bail!("selects no frame of the {count} in the input");
-    }
-    let (classes, frames) = seq.into_parts();
-    let frames = frames
-        .into_iter()
-        .enumerate()
-        .filter(|(i, _)| keep.contains(i))
-        .map(|(_, f)| f)
-        .collect();
-    Ok(Sequence::new(classes, frames)?)
+    Ok(input::read(&args.inputs, &options)?)
 }

@@ -1,8 +1,11 @@
 //! `dynaslice labels MODEL.dsm --like REF.nii.gz -o OUT.nii.gz` (or `--bounds`, `--spacing`,
 //! `--times`): the model's Eq. 11 label volume, written frame by frame (docs/metrics.md).
 
+use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
-use anyhow::{bail, ensure, Context, Result};
+use super::options::{count, finite_f64, positive_f64, time_series, MAX_THREADS, MAX_TIMES};
+use super::output::{regular_file, Kind, Plan};
+use anyhow::{bail, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::nifti::read_volume;
 use dynaslice_data::TimeSeries;
@@ -26,39 +29,60 @@ pub struct Args {
         long,
         value_delimiter = ',',
         allow_negative_numbers = true,
-        value_name = "X0,Y0,Z0,X1,Y1,Z1"
+        value_name = "X0,Y0,Z0,X1,Y1,Z1",
+        value_parser = finite_f64
     )]
     bounds: Option<Vec<f64>>,
     /// Voxel size: one value, or SX,SY,SZ (default: 128 voxels along the longest axis).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = positive_f64, allow_negative_numbers = true)]
     spacing: Option<Vec<f64>>,
     /// Frames at N times evenly from A to B inclusive (default: the model's time range in 10
     /// frames).
-    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true)]
+    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
+          value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Output .nii or .nii.gz.
     #[arg(short, long, value_name = "OUT.nii.gz")]
     output: PathBuf,
-    /// Worker threads (default: one per core).
+    /// Replace an existing label volume.
     #[arg(long)]
+    force: bool,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_parser = count(1, MAX_THREADS))]
     threads: Option<usize>,
+    #[command(flatten)]
+    memory: MemoryArgs,
 }
+
+/// Bytes per voxel while a frame is labelled and written: a u32 class index and an i32 label
+/// per voxel ([`dynaslice_volume::write_model_labels`]), and up to 2 more for the frame's
+/// encoded copy in the NIfTI writer.
+const BYTES_PER_VOXEL: f64 = 10.0;
 
 /// Runs `dynaslice labels`: the model's Eq. 11 label volume on a reference grid or a box, as NIfTI.
 pub fn run(a: Args) -> Result<()> {
-    let name = a.output.to_string_lossy().to_ascii_lowercase();
-    ensure!(
-        name.ends_with(".nii") || name.ends_with(".nii.gz"),
-        "{}: the output must be a .nii or .nii.gz file",
-        a.output.display()
+    let mut plan = Plan::new(
+        [Some(&a.model), a.like.as_ref()].into_iter().flatten(),
+        a.force,
     );
+    plan.file("-o", &a.output, Kind::LabelVolume)?;
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
     let grid = match &a.like {
         // The reference's voxels are read and dropped at once: only its geometry is used.
-        Some(reference) => VoxelGrid::like(&read_volume(reference)?),
+        Some(reference) => {
+            regular_file("reference", reference)?;
+            VoxelGrid::like(&read_volume(reference)?)
+        }
         None => bounds_grid(&a, &model)?,
     };
+    let [nx, ny, nz] = grid.dims;
+    memory::check(
+        &format!("a label volume of {nx}×{ny}×{nz} voxels"),
+        grid.dims.iter().map(|&n| n as f64).product::<f64>() * BYTES_PER_VOXEL,
+        "use a coarser --spacing or smaller --bounds",
+        a.memory,
+    )?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
         .build()
@@ -95,7 +119,6 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
-    let [nx, ny, nz] = grid.dims;
     eprintln!(
         "wrote {}: {nx}×{ny}×{nz} voxels × {frames} frame(s) in {:.1} s",
         a.output.display(),

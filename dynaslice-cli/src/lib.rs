@@ -4,18 +4,24 @@
 #![warn(missing_docs)]
 
 mod bench;
+mod completions;
 mod demo;
 mod eval;
 mod info;
 mod input;
 mod labels;
 pub mod loss;
+mod man;
+mod memory;
 mod mesh;
 mod model;
+mod options;
+mod output;
 mod picture;
 mod query;
 mod synth;
 mod train;
+mod warnings;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -51,10 +57,15 @@ enum Command {
     Query(query::Args),
     /// Write the synthetic 4D benchmark: training slices (native JSON) and ground-truth NIfTI.
     Synth(synth::Args),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions(completions::Args),
+    /// Write the manual pages (roff): dynaslice.1 on standard output, or all pages into a folder.
+    Man(man::Args),
 }
 
 /// Parses the process arguments and runs the chosen subcommand.
 pub fn main() -> ExitCode {
+    warnings::install();
     match run(Cli::parse().command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -77,6 +88,8 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Query(args) => query::run(args),
         Command::Train(args) => train::run(args),
         Command::Synth(args) => synth::run(args),
+        Command::Completions(args) => completions::run(args),
+        Command::Man(args) => man::run(args),
     }
 }
 

@@ -2,11 +2,17 @@
 //! sets of a model's classes as closed triangle meshes in world coordinates. Method, file names
 //! and attributes: docs/meshing.md.
 
+use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
+use super::options::{
+    count, f32_in, finite_f32, time_series, MAX_MESH_RESOLUTION, MAX_NEWTON_STEPS, MAX_SAFETY,
+    MAX_THREADS, MAX_TIMES,
+};
+use super::output::{Kind, Plan};
 use anyhow::{bail, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::TimeSeries;
-use dynaslice_mesh::io::{Format, MeshFiles};
+use dynaslice_mesh::io::{Format, MeshFiles, Space};
 use dynaslice_mesh::{self as mesh, Extraction, Options, Sampling, Surfaces, DEFAULT_SAFETY};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -15,25 +21,33 @@ use std::time::Instant;
 
 /// Arguments of `dynaslice mesh`.
 #[derive(clap::Args, Debug)]
+#[command(after_help = "\
+File names: with --time, one class is written to OUT itself; several classes go beside it as
+STEM_classK_NAME.EXT (e.g. -o t.ply writes t_class1_liver.ply, t_class2_spleen.ply), NAME the
+class name reduced to letters, digits and '-'. With --times, OUT is a directory of
+classK_NAME_tIIII.EXT files (IIII the time's index), plus series.pvd for ParaView (vtp).
+A static model (trained on one timestep) needs no --time.")]
 pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
-    /// World time of the meshes (the model's time units; any time in its range).
-    #[arg(long, allow_negative_numbers = true, required_unless_present = "times")]
+    /// World time of the meshes (the model's time units; any time in its range; a static
+    /// model's default is its time).
+    #[arg(long, allow_negative_numbers = true, value_parser = finite_f32)]
     time: Option<f32>,
     /// A series: N times evenly spaced from A to B inclusive; -o is then a directory.
     #[arg(
         long,
         value_name = "A:B:N",
         conflicts_with = "time",
-        allow_hyphen_values = true
+        allow_hyphen_values = true,
+        value_parser = time_series(MAX_TIMES)
     )]
     times: Option<TimeSeries>,
     /// Class to mesh, by number (1..K) or name; repeat for several. Default: every class.
     #[arg(long = "class", value_name = "K")]
     classes: Vec<String>,
     /// Lattice cells along the longest axis of the model's bounds.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
     resolution: u32,
     /// Output: a .ply, .obj, .stl or .vtp file with --time, a directory with --times.
     #[arg(short, long, value_name = "OUT")]
@@ -41,23 +55,37 @@ pub struct Args {
     /// File format of a series (ply, obj, stl, vtp); a single file takes its extension's.
     #[arg(long, default_value = "vtp", value_parser = parse_format)]
     format: Format,
+    /// Frame of the written vertices: lps (x and y negated; what 3D Slicer and ITK assume) or
+    /// ras (the model's world frame).
+    #[arg(long, default_value = "lps", value_parser = parse_space)]
+    space: Space,
     /// Non-overlapping surfaces: the boundaries of the Eq. 11 label partition, shared by
     /// neighbouring classes.
     #[arg(long)]
     non_overlapping: bool,
     /// Safety factor s of the distance bound: a cell is skipped when |f| at a corner exceeds
     /// s times the distance it must cover (≥ 1; larger is safer for models far from ‖∇f‖ = 1).
-    #[arg(long, default_value_t = DEFAULT_SAFETY)]
+    #[arg(long, default_value_t = DEFAULT_SAFETY, value_parser = f32_in(1.0, MAX_SAFETY),
+          allow_negative_numbers = true)]
     safety: f32,
     /// Evaluate the network at every lattice vertex instead (a slow check of the sparse result).
     #[arg(long)]
     dense: bool,
     /// Newton steps per vertex along ∇ₓf (0: linear interpolation on the lattice edges).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = count(0, MAX_NEWTON_STEPS))]
     newton_steps: u32,
     /// Worker threads (default: one per core).
-    #[arg(long)]
+    #[arg(long, value_parser = count(1, MAX_THREADS))]
     threads: Option<usize>,
+    #[command(flatten)]
+    memory: MemoryArgs,
+}
+
+fn parse_space(s: &str) -> Result<Space, String> {
+    Space::ALL
+        .into_iter()
+        .find(|sp| sp.name().eq_ignore_ascii_case(s))
+        .ok_or_else(|| format!("unknown frame {s:?}; use lps or ras"))
 }
 
 fn parse_format(s: &str) -> Result<Format, String> {
@@ -100,24 +128,37 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 fn mesh_all(args: &Args) -> Result<()> {
+    let series = args.times.is_some();
+    let mut plan = Plan::new([&args.model], true);
+    if series {
+        plan.directory("-o", &args.output)?;
+    } else {
+        plan.file("-o", &args.output, Kind::Mesh)?;
+    }
     let file = ModelFile::open(&args.model)?;
     let model = file.model();
     let classes = resolve_classes(&model, &args.model, &args.classes)?;
     let names: Vec<String> = model.classes().map(|c| c.name.to_string()).collect();
-    let (t0, t1) = model.domain().time_range();
     let times = match (&args.times, args.time) {
         // The network takes f32 times (the f64 series rounded once).
         (Some(series), _) => series.times().into_iter().map(|t| t as f32).collect(),
-        (None, Some(t)) => vec![t],
-        (None, None) => bail!("give --time T or --times A:B:N"),
+        (None, t) => vec![file.time("--time", t)?],
     };
     // The network is only fitted on its time range; outside it, it extrapolates freely.
-    let slack = 1e-4 * (t1 - t0).abs().max(1e-6);
-    if let Some(t) = times.iter().find(|&&t| t < t0 - slack || t > t1 + slack) {
-        bail!(
-            "{}: time {t} is outside the model's time range [{t0}, {t1}]",
-            args.model.display()
-        );
+    for &t in &times {
+        file.check_time("time", t)?;
+    }
+    if args.dense {
+        // The dense lattice's values: K f32 per vertex, its hash-map entry and cell list
+        // (about 48 bytes per vertex); the domain is a cube, so (resolution + 1)³ vertices.
+        let vertices = (f64::from(args.resolution) + 1.0).powi(3);
+        let bytes = vertices * (4.0 * classes.len() as f64 + 48.0);
+        memory::check(
+            &format!("--dense at --resolution {}", args.resolution),
+            bytes,
+            "lower --resolution or drop --dense",
+            args.memory,
+        )?;
     }
     let options = Options {
         resolution: args.resolution,
@@ -136,12 +177,17 @@ fn mesh_all(args: &Args) -> Result<()> {
         newton_steps: args.newton_steps,
     };
     // Where each (time, class) mesh goes.
-    let series = args.times.is_some();
     let mut files = if series {
-        MeshFiles::series(&args.output, args.format)?
+        MeshFiles::series(&args.output, args.format, args.space)?
     } else {
-        MeshFiles::single(&args.output, classes.len())?
+        MeshFiles::single(&args.output, classes.len(), args.space)?
     };
+    if !series && classes.len() > 1 {
+        // The per-class files beside -o: none may be the model.
+        for &k in &classes {
+            plan.beside(&files.path(0, k, &names[k]))?;
+        }
+    }
 
     let bar = (series && std::io::stderr().is_terminal()).then(|| {
         let bar = ProgressBar::new(times.len() as u64);
@@ -202,7 +248,8 @@ fn mesh_all(args: &Args) -> Result<()> {
                 },
                 path.display()
             ));
-            files.write(i, t, k, &names[k], mesh)?;
+            let class = model.class(k as u32 + 1)?;
+            files.write(i, t, k, class, mesh)?;
         }
         if let Some(bar) = &bar {
             bar.inc(1);

@@ -2,9 +2,14 @@
 
 use super::input::{self, InputArgs};
 use super::model::ModelFile;
+use super::options::finite_f64;
+use super::output::{write_via, Kind, Plan};
 use anyhow::{bail, Context, Result};
 use dynaslice_figures::picture::{plane_labels, Panel};
 use std::path::PathBuf;
+
+/// Extra times one picture shows at most (each is a panel of the picture).
+const MAX_PANELS: usize = 64;
 
 /// Arguments of `dynaslice picture`.
 #[derive(clap::Args, Debug)]
@@ -13,7 +18,7 @@ pub struct Args {
     model: PathBuf,
     #[command(flatten)]
     input: InputArgs,
-    /// Output PNG.
+    /// Output picture (.png).
     #[arg(short, long)]
     output: PathBuf,
     /// Annotated frame whose plane and contours are shown (index into the selected frames).
@@ -24,7 +29,8 @@ pub struct Args {
     plane: Option<usize>,
     /// Extra times (world units) shown on the same plane without contours; default: halfway
     /// to the next annotated frame.
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true,
+          value_parser = finite_f64)]
     times: Option<Vec<f64>>,
 }
 
@@ -32,6 +38,14 @@ pub struct Args {
 /// the longest contours) at the frame's time, with its contours, and at the extra times
 /// (by default midway to the next frame), written as one PNG.
 pub fn run(a: Args) -> Result<()> {
+    let inputs = [&a.model]
+        .into_iter()
+        .chain(&a.input.inputs)
+        .chain(&a.input.label_names);
+    Plan::new(inputs, true).file("-o", &a.output, Kind::Png)?;
+    if a.times.as_ref().is_some_and(|t| t.len() > MAX_PANELS) {
+        bail!("--times: at most {MAX_PANELS} extra times fit one picture");
+    }
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
     let seq = input::read(&a.input)?;
@@ -39,7 +53,7 @@ pub fn run(a: Args) -> Result<()> {
     let Some(frame) = frames.get(a.frame) else {
         bail!(
             "{}: --frame {} but the input has {} frames",
-            a.input.input.display(),
+            a.input.describe(),
             a.frame,
             frames.len()
         );
@@ -62,7 +76,7 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) if p < frame.planes.len() => p,
         Some(p) => bail!(
             "{}: --plane {p} but frame {} has {} planes",
-            a.input.input.display(),
+            a.input.describe(),
             a.frame,
             frame.planes.len()
         ),
@@ -88,7 +102,9 @@ pub fn run(a: Args) -> Result<()> {
         title: format!("t = {t:.4} (not annotated)"),
         contours: None,
     }));
-    plane_labels(&model, &seq, plane, &panels, &a.output)?;
+    write_via(&a.output, |tmp| {
+        plane_labels(&model, &seq, plane, &panels, tmp)
+    })?;
     eprintln!("wrote {}", a.output.display());
     Ok(())
 }

@@ -1,6 +1,7 @@
-//! `dynaslice query MODEL X Y Z T`.
+//! `dynaslice query MODEL X Y Z [T]`.
 
 use super::model::ModelFile;
+use super::options::finite_f32;
 use anyhow::Result;
 use dynaslice_core::UNDEFINED_LABEL;
 use std::path::PathBuf;
@@ -11,17 +12,18 @@ pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
     /// World x (e.g. mm).
-    #[arg(allow_negative_numbers = true)]
+    #[arg(allow_negative_numbers = true, value_parser = finite_f32)]
     x: f32,
     /// World y.
-    #[arg(allow_negative_numbers = true)]
+    #[arg(allow_negative_numbers = true, value_parser = finite_f32)]
     y: f32,
     /// World z.
-    #[arg(allow_negative_numbers = true)]
+    #[arg(allow_negative_numbers = true, value_parser = finite_f32)]
     z: f32,
-    /// World time (the model's time units).
-    #[arg(allow_negative_numbers = true)]
-    t: f32,
+    /// World time (the model's time units), within the model's time range; optional for a
+    /// static model (trained on one timestep).
+    #[arg(allow_negative_numbers = true, value_parser = finite_f32)]
+    t: Option<f32>,
 }
 
 /// Runs `dynaslice query`: prints each class's f, ∇ₓf and ∂f/∂t at the world point and time,
@@ -29,10 +31,11 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let file = ModelFile::open(&args.model)?;
     let model = file.model();
+    let t = file.time("T", args.t)?;
     let k = model.num_classes();
     let (mut f, mut grad, mut dfdt) = (vec![0.0; k], vec![[0.0; 3]; k], vec![0.0; k]);
     let x = [args.x, args.y, args.z];
-    model.eval_jacobian(x, args.t, &mut f, &mut grad, &mut dfdt)?;
+    model.eval_jacobian(x, t, &mut f, &mut grad, &mut dfdt)?;
     println!(
         "{:<5} {:<20} {:>12} {:>12} {:>12} {:>12} {:>12}",
         "class", "name", "f", "df/dx", "df/dy", "df/dz", "df/dt"
@@ -50,7 +53,7 @@ pub fn run(args: Args) -> Result<()> {
             dfdt[i]
         );
     }
-    match model.label(x, args.t) {
+    match model.label(x, t) {
         UNDEFINED_LABEL => println!("label undefined (non-finite query)"),
         0 => println!("label 0 (background)"),
         l => {

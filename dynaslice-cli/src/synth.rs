@@ -1,10 +1,13 @@
 //! `dynaslice synth -o DIR [--shape NAME|all]`: the synthetic 4D benchmark.
 
-use std::path::PathBuf;
-
-use anyhow::Result;
-
+use super::memory::{self, MemoryArgs};
+use super::options::{
+    count, MAX_PLANE_RESOLUTION, MAX_SYNTH_PLANES, MAX_SYNTH_TIMESTEPS, MAX_VOLUME_RESOLUTION,
+};
+use super::output::Plan;
+use anyhow::{bail, Context, Result};
 use dynaslice_data::synth::{write_benchmark, BenchmarkOptions, Shape};
+use std::path::PathBuf;
 
 /// Arguments of `dynaslice synth`.
 #[derive(clap::Args, Debug)]
@@ -16,53 +19,107 @@ pub struct Args {
     #[arg(long, default_value = "all")]
     shape: String,
     /// Timesteps uniformly spaced over [0, 1].
-    #[arg(long, default_value_t = 37)]
+    #[arg(long, default_value_t = 37, value_parser = count(2, MAX_SYNTH_TIMESTEPS))]
     timesteps: usize,
     /// Slice every N-th timestep for training.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, value_parser = count(1, MAX_SYNTH_TIMESTEPS))]
     train_every: usize,
     /// Rotated and parallel planes per training timestep, `R,P` (default 15,15; 35,35 for thin
     /// shapes).
     #[arg(long, value_parser = parse_pair)]
     planes: Option<(usize, usize)>,
     /// Grid points per axis used to contour each plane.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, value_parser = count(2, MAX_PLANE_RESOLUTION))]
     plane_resolution: usize,
     /// Voxels per axis of the ground-truth volume.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, value_parser = count(1, MAX_VOLUME_RESOLUTION))]
     volume_resolution: usize,
+    /// Replace the data sets of these shapes where DIR already holds them.
+    #[arg(long)]
+    force: bool,
+    #[command(flatten)]
+    memory: MemoryArgs,
 }
 
 fn parse_pair(s: &str) -> Result<(usize, usize), String> {
     let (a, b) = s.split_once(',').ok_or("expected R,P")?;
-    let n = |x: &str| x.trim().parse::<usize>().map_err(|e| format!("`{x}`: {e}"));
-    Ok((n(a)?, n(b)?))
+    let n = |x: &str| count(0, MAX_SYNTH_PLANES)(x).map_err(|e| format!("`{x}`: {e}"));
+    let (r, p) = (n(a)?, n(b)?);
+    if r + p == 0 {
+        return Err("no plane: R + P must be at least 1".into());
+    }
+    Ok((r, p))
 }
 
-/// Runs `dynaslice synth`.
+/// Bytes per voxel and frame of the ground truth: the i32 labels of every frame, held until
+/// written, and the writer's encoded copy.
+const BYTES_PER_VOXEL_FRAME: f64 = 8.0;
+
+/// Runs `dynaslice synth`: each shape's data set is written into a temporary folder inside
+/// DIR and renamed to DIR/<shape> when complete, so a failed run leaves no partial data set.
 pub fn run(args: Args) -> Result<()> {
     let shapes: Vec<Shape> = if args.shape == "all" {
         Shape::ALL.to_vec()
     } else {
         vec![args.shape.parse().map_err(anyhow::Error::msg)?]
     };
-    if args.timesteps < 2 || args.train_every == 0 {
-        anyhow::bail!("--timesteps must be at least 2 and --train-every at least 1");
+    let dir = &args.output;
+    Plan::new(std::iter::empty::<PathBuf>(), args.force).directory("-o", dir)?;
+    for shape in &shapes {
+        let target = dir.join(shape.name());
+        if target.exists() && !args.force {
+            bail!(
+                "-o {}: {} exists; add --force to replace it",
+                dir.display(),
+                target.display()
+            );
+        }
     }
+    let r = args.volume_resolution as f64;
+    memory::check(
+        &format!(
+            "--volume-resolution {} over {} timesteps",
+            args.volume_resolution, args.timesteps
+        ),
+        r * r * r * args.timesteps as f64 * BYTES_PER_VOXEL_FRAME,
+        "lower --volume-resolution or --timesteps",
+        args.memory,
+    )?;
     let options = BenchmarkOptions {
         timesteps: args.timesteps,
         train_every: args.train_every,
         planes: args.planes,
-        plane_resolution: args.plane_resolution.max(2),
-        volume_resolution: args.volume_resolution.max(1),
+        plane_resolution: args.plane_resolution,
+        volume_resolution: args.volume_resolution,
     };
-    for files in write_benchmark(&args.output, &shapes, &options)? {
-        println!(
-            "{:<9} {}  {}",
-            files.shape.name(),
-            files.slices.display(),
-            files.truth.display()
-        );
+    if !dir.exists() {
+        std::fs::create_dir(dir)
+            .with_context(|| format!("cannot create directory {}", dir.display()))?;
+    }
+    for shape in shapes {
+        // Deleted with its contents unless renamed away (any error, or a panic).
+        let tmp = tempfile::Builder::new()
+            .prefix(".synth-")
+            .tempdir_in(dir)
+            .with_context(|| format!("cannot create a temporary folder in {}", dir.display()))?;
+        let files = write_benchmark(tmp.path(), &[shape], &options)?;
+        let target = dir.join(shape.name());
+        if target.exists() {
+            // --force (checked above): the old data set goes only once the new one is complete.
+            std::fs::remove_dir_all(&target)
+                .with_context(|| format!("cannot remove {}", target.display()))?;
+        }
+        std::fs::rename(tmp.path().join(shape.name()), &target)
+            .with_context(|| format!("cannot rename the data set to {}", target.display()))?;
+        for f in files {
+            let moved = |p: &std::path::Path| target.join(p.file_name().unwrap_or_default());
+            println!(
+                "{:<9} {}  {}",
+                f.shape.name(),
+                moved(&f.slices).display(),
+                moved(&f.truth).display()
+            );
+        }
     }
     Ok(())
 }

@@ -5,7 +5,7 @@
 mod common;
 
 use dynaslice_core::Domain;
-use dynaslice_mesh::io::{write, Format};
+use dynaslice_mesh::io::{write, Format, MeshInfo, Space};
 use dynaslice_mesh::Mesh;
 use dynaslice_test_support::spheres::{self, Sphere};
 use std::f64::consts::{PI, TAU};
@@ -203,7 +203,13 @@ fn chamfer_distance_to_a_reference_mesh() {
     // The model's surface at t = 0 is the sphere of radius 10 about the origin; the reference
     // has radius 11, so both directions are 1 mm away: CD = 2·1²/D², D = 22√3.
     let stl = dir.path().join("ref.stl");
-    write(&stl, &uv_sphere([0.0; 3], 11.0, 96), Format::Stl, "ref").unwrap();
+    write(
+        &stl,
+        &uv_sphere([0.0; 3], 11.0, 96),
+        Format::Stl,
+        &MeshInfo::new("ref", Space::Ras),
+    )
+    .unwrap();
     let out = common::succeeded(&dynaslice(&[
         "eval",
         "reference",
@@ -304,11 +310,11 @@ fn degenerate_sizes_are_refused() {
                 "--pixels",
                 "0",
             ],
-            "--pixels 0",
+            "invalid value '0' for '--pixels <PIXELS>'",
         ),
         (
             &["eval", "reference", &model, "missing.stl", "--samples", "0"],
-            "--samples 0",
+            "invalid value '0' for '--samples <SAMPLES>'",
         ),
         (
             &[
@@ -320,7 +326,7 @@ fn degenerate_sizes_are_refused() {
                 "--resolution",
                 "0",
             ],
-            "at least 1 cell per axis",
+            "invalid value '0' for '--resolution <RESOLUTION>'",
         ),
     ];
     for (args, want) in cases {

@@ -174,7 +174,7 @@ fn errors_name_the_file_and_the_problem() {
         ),
         (
             vec!["labels", &model, "-o", "x.png"],
-            "x.png: the output must be a .nii",
+            "-o x.png: a label volume must be named *.nii or *.nii.gz",
         ),
         (
             vec![

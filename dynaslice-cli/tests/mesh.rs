@@ -180,7 +180,9 @@ fn a_time_series_goes_to_a_directory_with_a_paraview_collection() {
     for (i, t) in ["0", "1", "2"].iter().enumerate() {
         let file = format!("class1_ball_t{i:04}.vtp");
         assert!(out.join(&file).exists(), "{file}");
-        let entry = format!("<DataSet timestep=\"{t}\" group=\"\" part=\"1\" file=\"{file}\"/>");
+        let entry = format!(
+            "<DataSet timestep=\"{t}\" group=\"\" part=\"1\" name=\"ball\" file=\"{file}\"/>"
+        );
         assert!(pvd.contains(&entry), "{pvd}");
     }
     assert_eq!(pvd.matches("<DataSet").count(), 3);
@@ -199,10 +201,13 @@ fn errors_name_the_file_and_the_problem() {
         ),
         (
             vec!["--time", "3"],
-            "time 3 is outside the model's time range [0, 2]",
+            "--time 3 is outside the model's time range [0, 2]",
         ),
         (vec!["--times", "0:1"], "expected A:B:N"),
-        (vec!["--time", "0", "--resolution", "1"], "resolution 1"),
+        (
+            vec!["--time", "0", "--resolution", "0"],
+            "invalid value '0' for '--resolution <RESOLUTION>'",
+        ),
     ] {
         let mut all = vec!["mesh", model.as_str(), "-o", out];
         all.extend(args);
@@ -216,7 +221,7 @@ fn errors_name_the_file_and_the_problem() {
     let o = dynaslice(&["mesh", &model, "--time", "0", "-o", "mesh.off"]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
-        stderr.contains("mesh.off: unknown mesh format \"off\""),
+        stderr.contains("-o mesh.off: a mesh must be named *.ply or *.obj or *.stl or *.vtp"),
         "{stderr}"
     );
     let o = dynaslice(&["mesh", "missing.dsm", "--time", "0", "-o", out]);

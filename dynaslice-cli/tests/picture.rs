@@ -26,9 +26,10 @@ fn draws_labels_and_contours() {
     succeeded(&out);
     let bytes = std::fs::read(&png).unwrap();
     assert_eq!(&bytes[1..4], b"PNG");
-    // Two panels (frame 1 and halfway to frame 2) of at most 480 px plus margins.
+    // Two panels (frame 1 and halfway to frame 2) of at most 480 px plus margins and the
+    // class legend.
     let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
-    assert!(width > 2 * 100 && width <= 2 * 480 + 30, "width {width}");
+    assert!(width > 2 * 100 && width <= 2 * 480 + 200, "width {width}");
 
     let out = picture(&["-o", png.to_str().unwrap(), "--frame", "9"]);
     let err = String::from_utf8_lossy(&out.stderr);

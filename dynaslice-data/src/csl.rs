@@ -22,12 +22,27 @@
 //! - Nesting, not the stored orientation, decides outer boundaries and holes (see
 //!   [`Sequence::new`]); a hole must still lie inside the parent it names.
 //!
+//! # Crossing and self-touching contours
+//! The contours of one class on one plane are read by the even-odd rule. Where they cross or
+//! touch in a way [`Sequence::new`] would refuse (see [`find_contacts`]: a ring crossing itself or
+//! passing twice through a vertex so that it crosses there, a vertex on another edge, overlapping
+//! edges, and two components of the class crossing each other), they are replaced by simple rings
+//! bounding the same even-odd region ([`even_odd_rings`]), with a warning naming file, plane,
+//! label and components. For crossing components this makes their overlap a hole: the even-odd
+//! reading of all the class's rings, the one that trusts neither orientation nor hole markers.
+//! Rings that merely share a vertex are left to the validator's pinch repair; a set of rings whose
+//! even-odd region is empty is refused.
+//!
 //! # Plane frames and regions of interest
-//! The normal is (A, B, C)/‖(A, B, C)‖; u is the world axis least aligned with it, made
-//! orthogonal and unit; v = n × u. The origin is the projection onto the plane of the centroid of
-//! the plane's vertices (of the file's vertices if it has none). Every vertex must lie within
-//! 10⁻⁶ × the file's bounding-box diagonal of its plane. The region of interest of every plane is
-//! the projection of the file's vertex bounding box grown by 5 % of its diagonal on each side.
+//! The plane is the one the vertices lie on: the stated Ax + By + Cz + D = 0 when every vertex
+//! is within 10⁻⁶ × the file's bounding-box diagonal of it; else, with a warning,
+//! Ax + By + Cz = D (the other sign convention) when they fit that; else their least-squares
+//! plane when they are coplanar within [`COPLANAR_TOLERANCE`] × their extent; else the plane is
+//! refused. The normal n is the chosen
+//! plane's, oriented like (A, B, C); u is the world axis least aligned with it, made orthogonal and
+//! unit; v = n × u. The origin is the projection onto the plane of the centroid of the plane's
+//! vertices (of the file's vertices if it has none). The region of interest of every plane is the
+//! projection of the file's vertex bounding box grown by 5 % of its diagonal on each side.
 //!
 //! # Sequences
 //! One `.csl` file is one timestep. A manifest lists a sequence: one `<time> <path>` per line,
@@ -46,6 +61,7 @@ use super::error::{DataError, ErrorKind, Result};
 use super::label_table::LabelTable;
 use super::sequence::{cross, dot, Annotation, Frame, Plane, Rect, Sequence};
 use crate::geometry::polygon::contains;
+use crate::geometry::repair::{even_odd_rings, find_contacts};
 use crate::geometry::Polygon;
 
 /// One component line of a `.csl` plane.
@@ -343,7 +359,7 @@ fn normalize(a: [f64; 3]) -> [f64; 3] {
 }
 
 /// Builds the frame of one file for the given sequence classes (sorted labels).
-fn to_frame(file: &RawFile, time: f64, labels: &[i32]) -> Result<Frame> {
+fn to_frame(path: &Path, file: &RawFile, time: f64, labels: &[i32]) -> Result<Frame> {
     let solids = solid_labels(file);
     let all: Vec<[f64; 3]> = file
         .planes
@@ -368,21 +384,105 @@ fn to_frame(file: &RawFile, time: f64, labels: &[i32]) -> Result<Frame> {
     let centroid_all = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
     let mut planes = Vec::with_capacity(file.planes.len());
     for (pi, rp) in file.planes.iter().enumerate() {
-        let plane = to_plane(rp, labels, &solids, tolerance, (glo, ghi), centroid_all)
+        let at = Place { path, plane: pi };
+        let plane = to_plane(at, rp, labels, &solids, tolerance, (glo, ghi), centroid_all)
             .map_err(|e| e.at_plane(pi).at_line(rp.line))?;
         planes.push(plane);
     }
     Ok(Frame { time, planes })
 }
 
-fn to_plane(
-    rp: &RawPlane,
-    labels: &[i32],
-    solids: &BTreeSet<i32>,
+/// Where a repair happened, for its warning: the file and the plane (0-based).
+#[derive(Clone, Copy)]
+struct Place<'a> {
+    path: &'a Path,
+    plane: usize,
+}
+
+impl std::fmt::Display for Place<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}, plane {}", self.path.display(), self.plane)
+    }
+}
+
+/// Vertices within this fraction of their plane's extent (the diagonal of their bounding box)
+/// from a common plane are coplanar as far as a drawn contour goes: 0.1 % is about one pixel
+/// of a 1000-pixel slice, far above rounding and far below any real out-of-plane drawing.
+pub const COPLANAR_TOLERANCE: f64 = 1e-3;
+
+/// Largest distance of `points` from the plane n·x + offset = 0, and the first point farther
+/// than `tolerance` (index and distance).
+fn deviation(
+    points: &[[f64; 3]],
+    n: [f64; 3],
+    offset: f64,
     tolerance: f64,
-    (glo, ghi): ([f64; 3], [f64; 3]),
-    centroid_all: [f64; 3],
-) -> Result<Plane> {
+) -> (f64, Option<(usize, f64)>) {
+    let mut largest = 0.0f64;
+    let mut first = None;
+    for (vi, p) in points.iter().enumerate() {
+        let distance = (dot(n, *p) + offset).abs();
+        largest = largest.max(distance);
+        if distance > tolerance && first.is_none() {
+            first = Some((vi, distance));
+        }
+    }
+    (largest, first)
+}
+
+/// Eigenvalues (increasing) and unit eigenvectors of a symmetric 3×3 matrix, by cyclic Jacobi
+/// rotations (converges quadratically; a few sweeps reach f64 precision).
+fn symmetric_eigen(mut m: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _sweep in 0..50 {
+        let off = m[0][1].abs() + m[0][2].abs() + m[1][2].abs();
+        let scale = m[0][0].abs() + m[1][1].abs() + m[2][2].abs();
+        if off <= f64::EPSILON * scale * 1e-3 || off == 0.0 {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if m[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if theta == 0.0 { 1.0 } else { t };
+            let (c, s) = (1.0 / (t * t + 1.0).sqrt(), t / (t * t + 1.0).sqrt());
+            // m ← Jᵀ m J with J the rotation in the (p, q) plane; columns of v ← v J.
+            for row in m.iter_mut() {
+                let (mkp, mkq) = (row[p], row[q]);
+                row[p] = c * mkp - s * mkq;
+                row[q] = s * mkp + c * mkq;
+            }
+            let (rp, rq) = (m[p], m[q]);
+            m[p] = std::array::from_fn(|k| c * rp[k] - s * rq[k]);
+            m[q] = std::array::from_fn(|k| s * rp[k] + c * rq[k]);
+            for row in v.iter_mut() {
+                let (vp, vq) = (row[p], row[q]);
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    let mut order = [0, 1, 2];
+    order.sort_by(|&i, &j| m[i][i].total_cmp(&m[j][j]));
+    (
+        order.map(|i| m[i][i]),
+        order.map(|i| [v[0][i], v[1][i], v[2][i]]),
+    )
+}
+
+/// The plane a `.csl` plane's vertices lie on, as unit normal n and offset (n·x + offset = 0).
+///
+/// The stated equation Ax + By + Cz + D = 0 is used when every vertex lies within `tolerance`
+/// of it. Otherwise, in this order (each with a warning naming file and plane):
+/// - the vertices lie on Ax + By + Cz = D (files written with the other sign convention): that
+///   plane is used;
+/// - the vertices are coplanar within [`COPLANAR_TOLERANCE`] × their extent: the least-squares
+///   plane through them is used, its normal oriented like (A, B, C);
+/// - otherwise the vertices are not coplanar and the plane is refused (the first vertex off the
+///   stated plane is named).
+fn resolve_plane(at: Place, rp: &RawPlane, tolerance: f64) -> Result<([f64; 3], f64)> {
     let [a, b, c, d] = rp.coefficients;
     let len = (a * a + b * b + c * c).sqrt();
     if len == 0.0 {
@@ -390,17 +490,78 @@ fn to_plane(
     }
     let n = [a / len, b / len, c / len];
     let offset = d / len;
-    for (vi, p) in rp.vertices.iter().enumerate() {
-        let distance = (dot(n, *p) + offset).abs();
-        if distance > tolerance {
-            return Err(ErrorKind::OffPlane {
-                vertex: vi,
-                distance,
-                tolerance,
+    let (stated, first_off) = deviation(&rp.vertices, n, offset, tolerance);
+    let Some((vertex, distance)) = first_off else {
+        return Ok((n, offset));
+    };
+    let refuse = || {
+        DataError::from(ErrorKind::OffPlane {
+            vertex,
+            distance,
+            tolerance,
+        })
+    };
+    if offset != 0.0 && deviation(&rp.vertices, n, -offset, tolerance).1.is_none() {
+        log::warn!(
+            "{at}: the vertices lie on Ax + By + Cz = D, not on the stated Ax + By + Cz + D = 0 \
+             (up to {stated:.3e} off it, the mirror image); read the plane with that sign \
+             convention"
+        );
+        return Ok((n, -offset));
+    }
+    // Least squares: the normal is the covariance's eigenvector of the smallest eigenvalue.
+    let m = rp.vertices.len() as f64;
+    let centroid: [f64; 3] =
+        std::array::from_fn(|k| rp.vertices.iter().map(|p| p[k]).sum::<f64>() / m);
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let mut cov = [[0.0; 3]; 3];
+    for p in &rp.vertices {
+        let q: [f64; 3] = std::array::from_fn(|k| p[k] - centroid[k]);
+        for i in 0..3 {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+            for j in 0..3 {
+                cov[i][j] += q[i] * q[j];
             }
-            .into());
         }
     }
+    let extent = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+    let coplanar = (COPLANAR_TOLERANCE * extent).max(tolerance);
+    let (values, vectors) = symmetric_eigen(cov);
+    // Vertices (nearly) on a line or at a point leave the plane's orientation undetermined.
+    if rp.vertices.len() < 3 || (values[1].max(0.0) / m).sqrt() <= coplanar {
+        return Err(refuse());
+    }
+    let mut fitted = normalize(vectors[0]);
+    if dot(fitted, n) < 0.0 {
+        fitted = fitted.map(|x| -x);
+    }
+    let fitted_offset = -dot(fitted, centroid);
+    let (residual, beyond) = deviation(&rp.vertices, fitted, fitted_offset, coplanar);
+    if beyond.is_some() {
+        return Err(refuse());
+    }
+    let angle = dot(fitted, n).clamp(-1.0, 1.0).acos().to_degrees();
+    log::warn!(
+        "{at}: the vertices are up to {stated:.3e} off the stated plane (tolerance \
+         {tolerance:.3e}) but coplanar (within {residual:.3e} of their least-squares plane, \
+         tolerance {coplanar:.3e}); fitted the plane to them (normal {angle:.3}° from the \
+         stated one)"
+    );
+    Ok((fitted, fitted_offset))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn to_plane(
+    at: Place,
+    rp: &RawPlane,
+    labels: &[i32],
+    solids: &BTreeSet<i32>,
+    tolerance: f64,
+    (glo, ghi): ([f64; 3], [f64; 3]),
+    centroid_all: [f64; 3],
+) -> Result<Plane> {
+    let (n, offset) = resolve_plane(at, rp, tolerance)?;
     let axis = (0..3)
         .min_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs()))
         .unwrap_or(0);
@@ -458,17 +619,62 @@ fn to_plane(
     plane.annotations = labels
         .iter()
         .enumerate()
-        .map(|(k, &label)| Annotation {
-            class: k,
-            polygons: polys
+        .map(|(k, &label)| {
+            let (components, polygons): (Vec<usize>, Vec<Polygon>) = polys
                 .iter()
                 .zip(&classes)
-                .filter(|(_, &l)| l == label)
-                .map(|(p, _)| p.clone())
-                .collect(),
+                .enumerate()
+                .filter(|(_, (_, &l))| l == label)
+                .map(|(ci, (p, _))| (ci, p.clone()))
+                .unzip();
+            Annotation {
+                class: k,
+                polygons: even_odd_repair(at, &plane, label, &components, polygons),
+            }
         })
         .collect();
     Ok(plane)
+}
+
+/// The polygons of one class on one plane, with rings that cross or touch (beyond pinches at a
+/// shared vertex, which [`Sequence::new`] separates) replaced by simple rings bounding the same
+/// region under the even-odd rule (see [`crate::geometry::repair`]). Rings the validator refuses
+/// for other reasons (too few vertices, repeated vertices) are returned unchanged for it to
+/// report, and so are rings whose even-odd region is empty (or beyond the engine's range).
+fn even_odd_repair(
+    at: Place,
+    plane: &Plane,
+    label: i32,
+    components: &[usize],
+    polygons: Vec<Polygon>,
+) -> Vec<Polygon> {
+    let Some(contacts) = find_contacts(&polygons) else {
+        return polygons;
+    };
+    let Some(rings) = even_odd_rings(&polygons).filter(|r| !r.is_empty()) else {
+        return polygons;
+    };
+    let involved: Vec<String> = contacts
+        .polygons
+        .iter()
+        .map(|&i| components[i].to_string())
+        .collect();
+    let (what, whom) = if contacts.between_polygons {
+        ("cross or touch each other", "components")
+    } else if involved.len() == 1 {
+        ("crosses or touches itself", "component")
+    } else {
+        ("cross or touch themselves", "components")
+    };
+    let near = plane.to_world(contacts.near);
+    log::warn!(
+        "{at}, label {label}: {whom} {} {what} (near {near:.6?}); read with the even-odd rule as \
+         {} simple rings (from {})",
+        involved.join(", "),
+        rings.len(),
+        polygons.len()
+    );
+    rings
 }
 
 fn read_raw(path: &Path) -> Result<RawFile> {
@@ -488,7 +694,8 @@ fn build(files: Vec<(PathBuf, f64, RawFile)>, names: &LabelTable) -> Result<Sequ
     let mut frames = Vec::with_capacity(files.len());
     for (i, (path, time, file)) in files.iter().enumerate() {
         frames.push(
-            to_frame(file, *time, &labels).map_err(|e| e.at_frame(i, Some(*time)).in_file(path))?,
+            to_frame(path, file, *time, &labels)
+                .map_err(|e| e.at_frame(i, Some(*time)).in_file(path))?,
         );
     }
     let paths: Vec<&PathBuf> = files.iter().map(|(p, _, _)| p).collect();

@@ -15,6 +15,13 @@ pub struct FrameRange {
     pub step: usize,
 }
 
+impl Default for FrameRange {
+    /// Every frame.
+    fn default() -> Self {
+        FrameRange::ALL
+    }
+}
+
 impl FrameRange {
     /// Every frame.
     pub const ALL: FrameRange = FrameRange {

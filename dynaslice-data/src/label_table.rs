@@ -74,6 +74,16 @@ impl LabelTable {
         self.colors.insert(label, color);
     }
 
+    /// This table with `over`'s entries replacing or adding to its own (a user's table over the
+    /// names and colours a file carries).
+    pub fn overlaid(&self, over: &LabelTable) -> LabelTable {
+        let mut t = self.clone();
+        t.names
+            .extend(over.names.iter().map(|(&l, n)| (l, n.clone())));
+        t.colors.extend(over.colors.iter().map(|(&l, &c)| (l, c)));
+        t
+    }
+
     /// Whether the table has no entry.
     pub fn is_empty(&self) -> bool {
         self.names.is_empty() && self.colors.is_empty()

@@ -7,6 +7,7 @@
 //! | native JSON (`docs/data-format.md`) | [`native::read`], [`native::write`] |
 //! | `.csl` file or manifest | [`csl::read`], [`csl::read_sequence`] |
 //! | NIfTI label volume, resliced | [`nifti::read`] with [`reslice::ResliceOptions`] |
+//! | DICOM RT Structure Set (RTSTRUCT) | [`rtstruct::read`] |
 //! | the synthetic benchmark | [`synth::slice_sequence`], [`synth::write_benchmark`] |
 //!
 //! Every reader returns a validated [`Sequence`] or a [`DataError`] that names the file, line,
@@ -16,15 +17,21 @@
 #![warn(missing_docs)]
 
 pub mod atomic;
+pub mod combine;
 pub mod csl;
+pub mod drawn_slices;
 pub mod error;
 pub mod frame_range;
 pub mod geometry;
+pub mod input;
 pub mod label_table;
+pub mod manifest;
 pub mod native;
 pub mod nifti;
 pub mod nifti_stream;
+pub mod nrrd;
 pub mod reslice;
+pub mod rtstruct;
 pub mod sequence;
 pub mod synth;
 pub mod time_series;

@@ -151,13 +151,14 @@ pub fn reslice(
     Sequence::new(classes, frames)
 }
 
-fn normalize(a: [f64; 3]) -> [f64; 3] {
+/// `a` scaled to unit length (NaN for the zero vector: callers check).
+pub(crate) fn normalize(a: [f64; 3]) -> [f64; 3] {
     let n = dot(a, a).sqrt();
     a.map(|x| x / n)
 }
 
 /// Unit `a` made orthogonal to unit `n`.
-fn orthogonal(a: [f64; 3], n: [f64; 3]) -> [f64; 3] {
+pub(crate) fn orthogonal(a: [f64; 3], n: [f64; 3]) -> [f64; 3] {
     let d = dot(a, n);
     normalize(std::array::from_fn(|k| a[k] - d * n[k]))
 }

@@ -1,7 +1,14 @@
 //! Pictures of a model on an input plane: the Eq. 11 labels it predicts, coloured per class,
 //! with the plane's input contours drawn over them, side by side for several times (e.g. an
 //! annotated frame and a time between annotated frames).
+//!
+//! Each panel has mm tick labels (world x, y or z where the plane's axis is one of them, else
+//! mm along the plane's own axis), a scale bar, and the anatomical directions (R/L, A/P, S/I of
+//! our RAS world) at its sides; the heading names the plane by orientation and position
+//! ([`plane_name`]). The legend wraps into as many columns and rows as it needs.
 
+use crate::color::{class_color, lighten};
+use crate::legend::{self, Item};
 use anyhow::{anyhow, Result};
 use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
 use dynaslice_data::{Plane, Sequence};
@@ -10,31 +17,10 @@ use std::path::Path;
 
 /// Pixels along the longer side of each panel.
 const PANEL: u32 = 480;
-
-/// Class colours (background white); class k uses entry (k − 1) mod len.
-const PALETTE: [RGBColor; 8] = [
-    RGBColor(230, 85, 70),
-    RGBColor(70, 130, 220),
-    RGBColor(90, 180, 90),
-    RGBColor(240, 180, 40),
-    RGBColor(160, 90, 200),
-    RGBColor(60, 190, 190),
-    RGBColor(200, 120, 160),
-    RGBColor(140, 110, 70),
-];
-
-fn class_colour(label: u32) -> RGBColor {
-    match label {
-        0 => WHITE,
-        UNDEFINED_LABEL => BLACK,
-        k => PALETTE[(k as usize - 1) % PALETTE.len()],
-    }
-}
-
-fn lighten(c: RGBColor) -> RGBColor {
-    let m = |v: u8| (v as u16 + (255 - v as u16) / 2) as u8;
-    RGBColor(m(c.0), m(c.1), m(c.2))
-}
+/// Most panels in one picture (bounds the image and the model evaluations).
+pub const MAX_PANELS: usize = 16;
+/// A plane axis within this of a world axis (cosine) counts as that axis (about 2.6°).
+const ALIGNED: f64 = 0.999;
 
 /// One panel: a time, and the input contours to draw on it (those of the frame at that time,
 /// if the time is annotated).
@@ -47,7 +33,125 @@ pub struct Panel<'a> {
     pub contours: Option<&'a Plane>,
 }
 
-/// Renders `panels` of `model`'s labels over `plane`'s region of interest into a PNG.
+/// The plane by orientation and position: `axial z = 12.0 mm`, `coronal y = …`,
+/// `sagittal x = …` when its normal is within about 2.6° of a world axis, else
+/// `oblique through (x, y, z) mm` at the centre of its region of interest.
+pub fn plane_name(plane: &Plane) -> String {
+    let n = plane.normal();
+    let centre = plane.to_world([
+        0.5 * (plane.roi.min[0] + plane.roi.max[0]),
+        0.5 * (plane.roi.min[1] + plane.roi.max[1]),
+    ]);
+    for (k, (name, axis)) in [("sagittal", "x"), ("coronal", "y"), ("axial", "z")]
+        .into_iter()
+        .enumerate()
+    {
+        if n[k].abs() > ALIGNED {
+            // The plane's position along its normal axis, at the region's centre.
+            return format!("{name} {axis} = {:.1} mm", centre[k]);
+        }
+    }
+    format!(
+        "oblique through ({:.1}, {:.1}, {:.1}) mm",
+        centre[0], centre[1], centre[2]
+    )
+}
+
+/// The anatomical direction of world vector `d` in our RAS frame: the letter of its largest
+/// component, followed by that of the second if it is at least sin 22.5° of the whole (e.g.
+/// `R`, `AS`).
+pub fn direction_letters(d: [f64; 3]) -> String {
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    if len.is_nan() || len <= 0.0 {
+        return String::new();
+    }
+    let letters = [('R', 'L'), ('A', 'P'), ('S', 'I')];
+    let mut axes = [0, 1, 2];
+    axes.sort_by(|&a, &b| d[b].abs().total_cmp(&d[a].abs()));
+    let letter = |k: usize| {
+        if d[k] >= 0.0 {
+            letters[k].0
+        } else {
+            letters[k].1
+        }
+    };
+    let mut s = String::from(letter(axes[0]));
+    if d[axes[1]].abs() / len >= 0.382 {
+        s.push(letter(axes[1]));
+    }
+    s
+}
+
+/// A "nice" step (1, 2 or 5 × 10^k) giving about `target` steps over `span`.
+fn nice_step(span: f64, target: f64) -> f64 {
+    let raw = (span / target).max(1e-12);
+    let p = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * p)
+        .find(|&s| s >= raw)
+        .unwrap_or(10.0 * p)
+}
+
+/// How tick values along one picture axis relate to plane coordinate `p` on that axis:
+/// value = offset + scale · p, and the axis caption.
+struct AxisScale {
+    offset: f64,
+    scale: f64,
+    caption: String,
+}
+
+/// The displayed coordinate along plane direction `dir` (u or v): a world coordinate where
+/// `dir` is a world axis, else mm along the plane's own axis.
+fn axis_scale(
+    plane: &Plane,
+    dir: [f64; 3],
+    other: [f64; 3],
+    other_mid: f64,
+    name: &str,
+) -> AxisScale {
+    for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
+        if dir[k].abs() > ALIGNED {
+            return AxisScale {
+                offset: plane.origin[k] + other_mid * other[k],
+                scale: dir[k].signum(),
+                caption: format!("{axis} (mm)"),
+            };
+        }
+    }
+    AxisScale {
+        offset: 0.0,
+        scale: 1.0,
+        caption: format!("mm along plane {name} ({})", direction_letters(dir)),
+    }
+}
+
+/// Tick positions (plane coordinates) and labels over plane coordinates `lo..=hi`.
+fn ticks(axis: &AxisScale, lo: f64, hi: f64, target: f64) -> Vec<(f64, String)> {
+    let (a, b) = (axis.offset + axis.scale * lo, axis.offset + axis.scale * hi);
+    let (min, max) = (a.min(b), a.max(b));
+    let step = nice_step(max - min, target);
+    let decimals = if step >= 1.0 {
+        0
+    } else {
+        (-step.log10().floor()) as usize
+    };
+    let first = (min / step).ceil() as i64;
+    let last = (max / step).floor() as i64;
+    (first..=last)
+        .take(100)
+        .map(|i| {
+            let value = i as f64 * step;
+            let p = (value - axis.offset) / axis.scale;
+            // "-0" reads oddly.
+            let value = if value == 0.0 { 0.0 } else { value };
+            (p, format!("{value:.decimals$}"))
+        })
+        .collect()
+}
+
+/// Renders `panels` of `model`'s labels over `plane`'s region of interest into a PNG, written
+/// atomically.
 pub fn plane_labels(
     model: &Model,
     sequence: &Sequence,
@@ -59,23 +163,52 @@ pub fn plane_labels(
     crate::plot::register_font();
     let (lo, hi) = (plane.roi.min, plane.roi.max);
     let (w, h) = (hi[0] - lo[0], hi[1] - lo[1]);
-    if !(w > 0.0 && h > 0.0) {
+    if !(w > 0.0 && h > 0.0 && w.is_finite() && h.is_finite()) {
         return Err(anyhow!(
             "{}: the plane's region of interest is empty",
             path.display()
         ));
     }
+    if panels.is_empty() || panels.len() > MAX_PANELS {
+        return Err(anyhow!(
+            "cannot draw {}: {} panels (1 to {MAX_PANELS})",
+            path.display(),
+            panels.len()
+        ));
+    }
     let (pw, ph) = if w >= h {
-        (PANEL, ((PANEL as f64 * h / w) as u32).max(1))
+        (PANEL, ((PANEL as f64 * h / w) as u32).clamp(1, PANEL))
     } else {
-        (((PANEL as f64 * w / h) as u32).max(1), PANEL)
+        (((PANEL as f64 * w / h) as u32).clamp(1, PANEL), PANEL)
     };
-    let (title_h, legend_h) = (34, 30);
-    let width = pw * panels.len() as u32 + 10 * (panels.len() as u32 + 1);
-    let root = BitMapBackend::new(path, (width, ph + title_h + legend_h + 10)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
+
+    // Layout: heading; per panel a left gutter for the v ticks, its title, the picture, and
+    // a bottom gutter for the u ticks and caption; the legend below, wrapped to the width.
+    let (margin, heading_h, title_h, left, bottom) = (10u32, 34u32, 26u32, 64u32, 50u32);
+    let column = left + pw + margin;
+    let width = margin + column * panels.len() as u32;
+    let classes = sequence.classes();
+    let mut items: Vec<Item> = classes
+        .iter()
+        .enumerate()
+        .map(|(k, class)| {
+            let c = class_color(k, class.color);
+            Item {
+                label: format!("{} ({})", class.name, class.label),
+                fill: Some(lighten(c)),
+                line: Some(c),
+            }
+        })
+        .collect();
+    let note = "fill: predicted labels (Eq. 11); lines: input contours";
+    let layout = legend::across(&items, width - 2 * margin);
+    let width = width.max(layout.width() + 2 * margin);
+    let legend_top = heading_h + title_h + ph + bottom;
+    let height = legend_top + layout.height() + legend::ROW + margin;
+    let mut buffer = crate::canvas(path, width, height)?;
+
+    // Labels, straight into the buffer; lines and text are drawn over them below.
     let mut scratch = Scratch::boxed();
-    // Pixel centres in plane coordinates, row by row from the top (v decreasing).
     let pixel = |x: u32, y: u32| {
         [
             lo[0] + w * (x as f64 + 0.5) / pw as f64,
@@ -87,80 +220,223 @@ pub fn plane_labels(
         .map(|(x, y)| plane.to_world(pixel(x, y)).map(|v| v as f32))
         .collect();
     let mut labels = vec![0u32; points.len()];
+    let x_of = |i: usize| margin + i as u32 * column + left;
     for (i, panel) in panels.iter().enumerate() {
-        let x0 = 10 + i as u32 * (pw + 10);
         let times = vec![panel.time as f32; points.len()];
         model
             .label_batch(&mut scratch, &points, &times, &mut labels)
             .map_err(|e| err(&e))?;
-        root.draw(&Text::new(
-            panel.title.clone(),
-            (x0 as i32, 8),
-            ("sans-serif", 20),
-        ))
-        .map_err(|e| err(&e))?;
         for (j, &label) in labels.iter().enumerate() {
-            let (x, y) = (j as u32 % pw, j as u32 / pw);
-            let colour = if label == 0 {
-                WHITE
-            } else {
-                lighten(class_colour(label))
+            let colour = match label {
+                0 => continue,
+                UNDEFINED_LABEL => BLACK,
+                k => {
+                    let k = k as usize - 1;
+                    lighten(class_color(k, classes.get(k).and_then(|c| c.color)))
+                }
             };
-            root.draw_pixel(((x0 + x) as i32, (title_h + y) as i32), &colour)
-                .map_err(|e| err(&e))?;
+            let (x, y) = (x_of(i) + j as u32 % pw, heading_h + title_h + j as u32 / pw);
+            let at = (y as usize * width as usize + x as usize) * 3;
+            buffer[at..at + 3].copy_from_slice(&[colour.0, colour.1, colour.2]);
         }
-        let to_px = |p: [f64; 2]| -> (i32, i32) {
-            (
-                (x0 as f64 + (p[0] - lo[0]) / w * pw as f64) as i32,
-                (title_h as f64 + (hi[1] - p[1]) / h * ph as f64) as i32,
-            )
-        };
-        root.draw(&Rectangle::new(
-            [
-                (x0 as i32, title_h as i32),
-                ((x0 + pw) as i32, (title_h + ph) as i32),
-            ],
-            BLACK.stroke_width(1),
-        ))
-        .map_err(|e| err(&e))?;
-        if let Some(p) = panel.contours {
-            for a in &p.annotations {
-                let colour = class_colour(a.class as u32 + 1);
-                for poly in &a.polygons {
-                    let mut line: Vec<(i32, i32)> = poly.iter().map(|&q| to_px(q)).collect();
-                    line.extend(line.first().copied());
-                    root.draw(&PathElement::new(line, colour.stroke_width(2)))
-                        .map_err(|e| err(&e))?;
+    }
+
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
+        let d = |r: Result<(), DrawingAreaErrorKind<_>>| r.map_err(|e| err(&e));
+        d(root.draw(&Text::new(
+            plane_name(plane),
+            (margin as i32, 8),
+            ("sans-serif", 22),
+        )))?;
+        let (u_axis, v_axis) = (
+            axis_scale(plane, plane.u, plane.v, 0.5 * (lo[1] + hi[1]), "u"),
+            axis_scale(plane, plane.v, plane.u, 0.5 * (lo[0] + hi[0]), "v"),
+        );
+        let top = (heading_h + title_h) as i32;
+        let small = ("sans-serif", 14).into_font();
+        let centred = |dx: u32| dx as i32 / 2;
+        for (i, panel) in panels.iter().enumerate() {
+            let x0 = x_of(i) as i32;
+            let to_px = |p: [f64; 2]| -> (i32, i32) {
+                (
+                    x0 + ((p[0] - lo[0]) / w * pw as f64).round() as i32,
+                    top + ((hi[1] - p[1]) / h * ph as f64).round() as i32,
+                )
+            };
+            d(root.draw(&Text::new(
+                panel.title.clone(),
+                (x0, heading_h as i32),
+                ("sans-serif", 18),
+            )))?;
+            if let Some(p) = panel.contours {
+                for a in &p.annotations {
+                    let colour = class_color(a.class, classes.get(a.class).and_then(|c| c.color));
+                    for poly in &a.polygons {
+                        let mut line: Vec<(i32, i32)> = poly.iter().map(|&q| to_px(q)).collect();
+                        line.extend(line.first().copied());
+                        d(root.draw(&PathElement::new(line, colour.stroke_width(2))))?;
+                    }
                 }
             }
+            let (x1, y1) = (x0 + pw as i32, top + ph as i32);
+            d(root.draw(&Rectangle::new(
+                [(x0, top), (x1, y1)],
+                BLACK.stroke_width(1),
+            )))?;
+
+            // Ticks: u along the bottom, v along the left, in mm.
+            for (p, text) in ticks(&u_axis, lo[0], hi[0], pw as f64 / 90.0) {
+                let x = to_px([p, lo[1]]).0;
+                d(root.draw(&PathElement::new(vec![(x, y1), (x, y1 + 5)], BLACK)))?;
+                let tw = legend::text_width(&text, 14);
+                d(root.draw(&Text::new(text, (x - centred(tw), y1 + 7), small.clone())))?;
+            }
+            let caption_w = legend::text_width(&u_axis.caption, 14);
+            d(root.draw(&Text::new(
+                u_axis.caption.clone(),
+                (x0 + pw as i32 / 2 - centred(caption_w), y1 + 27),
+                small.clone(),
+            )))?;
+            for (p, text) in ticks(&v_axis, lo[1], hi[1], ph as f64 / 70.0) {
+                let y = to_px([lo[0], p]).1;
+                d(root.draw(&PathElement::new(vec![(x0 - 5, y), (x0, y)], BLACK)))?;
+                let tw = legend::text_width(&text, 14) as i32;
+                d(root.draw(&Text::new(text, (x0 - 8 - tw, y - 7), small.clone())))?;
+            }
+            // The v caption, written upwards beside the tick labels.
+            let caption_w = legend::text_width(&v_axis.caption, 14) as i32;
+            d(root.draw(&Text::new(
+                v_axis.caption.clone(),
+                (x0 - left as i32 + 2, top + ph as i32 / 2 + caption_w / 2),
+                small.clone().transform(FontTransform::Rotate270),
+            )))?;
+
+            // Anatomical directions at the sides: +u right, +v up.
+            let u = plane.u;
+            let v = plane.v;
+            let neg = |a: [f64; 3]| a.map(|c| -c);
+            let mid = (x0 + pw as i32 / 2, top + ph as i32 / 2);
+            for (letters, (x, y)) in [
+                (direction_letters(u), (x1 - 4, mid.1)),
+                (direction_letters(neg(u)), (x0 + 4, mid.1)),
+                (direction_letters(v), (mid.0, top + 4)),
+                (direction_letters(neg(v)), (mid.0, y1 - 4)),
+            ] {
+                let tw = legend::text_width(&letters, 16) as i32;
+                let (bx, by) = match (x, y) {
+                    (x, _) if x == x1 - 4 => (x - tw - 4, y - 10),
+                    (x, _) if x == x0 + 4 => (x, y - 10),
+                    (_, y) if y == top + 4 => (x - tw / 2 - 2, y),
+                    _ => (x - tw / 2 - 2, y - 20),
+                };
+                d(root.draw(&Rectangle::new(
+                    [(bx, by), (bx + tw + 4, by + 20)],
+                    WHITE.mix(0.8).filled(),
+                )))?;
+                d(root.draw(&Text::new(letters, (bx + 2, by + 2), ("sans-serif", 16))))?;
+            }
+
+            // Scale bar, bottom right: a nice length of about a fifth of the panel.
+            let mm_per_px = w / pw as f64;
+            let length = nice_step(0.2 * w, 1.0);
+            let bar_px = (length / mm_per_px).round() as i32;
+            let (bx1, by) = (x1 - 12, y1 - 30);
+            let bx0 = bx1 - bar_px;
+            let label = format!("{length} mm");
+            let tw = legend::text_width(&label, 14) as i32;
+            d(root.draw(&Rectangle::new(
+                [(bx0.min(bx1 - tw) - 4, by - 22), (bx1 + 4, by + 8)],
+                WHITE.mix(0.8).filled(),
+            )))?;
+            d(root.draw(&Rectangle::new([(bx0, by), (bx1, by + 4)], BLACK.filled())))?;
+            d(root.draw(&Text::new(
+                label,
+                ((bx0 + bx1) / 2 - tw / 2, by - 19),
+                small.clone(),
+            )))?;
+        }
+        // Legend: filled = predicted label, line = input contour.
+        d(legend::draw(
+            &root,
+            (margin as i32, legend_top as i32),
+            &items,
+            layout,
+        ))?;
+        items.clear();
+        d(root.draw(&Text::new(
+            note,
+            (margin as i32, (legend_top + layout.height()) as i32 + 3),
+            ("sans-serif", 14),
+        )))?;
+        root.present().map_err(|e| err(&e))?;
+    }
+    crate::save_png(path, &buffer, width, height)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynaslice_data::Rect;
+
+    fn plane(origin: [f64; 3], u: [f64; 3], v: [f64; 3]) -> Plane {
+        Plane {
+            origin,
+            u,
+            v,
+            roi: Rect {
+                min: [-10.0, -20.0],
+                max: [30.0, 20.0],
+            },
+            annotations: vec![],
         }
     }
-    // Legend: filled = predicted label, line = input contour.
-    let mut x = 10;
-    let y = (title_h + ph + 8) as i32;
-    for (k, class) in sequence.classes().iter().enumerate() {
-        let c = class_colour(k as u32 + 1);
-        root.draw(&Rectangle::new(
-            [(x, y), (x + 14, y + 14)],
-            lighten(c).filled(),
-        ))
-        .map_err(|e| err(&e))?;
-        root.draw(&PathElement::new(
-            vec![(x + 18, y + 7), (x + 34, y + 7)],
-            c.stroke_width(2),
-        ))
-        .map_err(|e| err(&e))?;
-        let label = format!("{} ({})", class.name, class.label);
-        root.draw(&Text::new(label.clone(), (x + 40, y), ("sans-serif", 15)))
-            .map_err(|e| err(&e))?;
-        x += 50 + 8 * label.chars().count() as i32;
+
+    #[test]
+    fn planes_are_named_by_orientation_and_position() {
+        let axial = plane([0.0, 0.0, 12.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        assert_eq!(plane_name(&axial), "axial z = 12.0 mm");
+        let coronal = plane([5.0, -7.25, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        assert_eq!(plane_name(&coronal), "coronal y = -7.2 mm");
+        let sagittal = plane([3.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
+        assert_eq!(plane_name(&sagittal), "sagittal x = 3.0 mm");
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let oblique = plane([0.0, 0.0, 0.0], [s, s, 0.0], [0.0, 0.0, 1.0]);
+        // ROI centre (10, 0) in plane coordinates.
+        assert_eq!(plane_name(&oblique), "oblique through (7.1, 7.1, 0.0) mm");
     }
-    root.draw(&Text::new(
-        "fill: predicted labels (Eq. 11); lines: input contours",
-        (x + 10, y),
-        ("sans-serif", 15),
-    ))
-    .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+
+    #[test]
+    fn directions_read_in_ras() {
+        assert_eq!(direction_letters([1.0, 0.0, 0.0]), "R");
+        assert_eq!(direction_letters([-1.0, 0.0, 0.0]), "L");
+        assert_eq!(direction_letters([0.0, -1.0, 0.0]), "P");
+        assert_eq!(direction_letters([0.0, 0.3, -1.0]), "I");
+        assert_eq!(direction_letters([0.0, 0.6, -1.0]), "IA");
+        assert_eq!(direction_letters([0.0; 3]), "");
+    }
+
+    #[test]
+    fn ticks_are_nice_mm_values_at_their_plane_positions() {
+        assert_eq!(nice_step(40.0, 5.0), 10.0);
+        assert_eq!(nice_step(3.0, 5.0), 1.0);
+        assert_eq!(nice_step(0.7, 5.0), 0.2);
+        // A plane whose u is world −x, origin x = 100: plane u = 10 is world x = 90.
+        let p = plane([100.0, 0.0, 5.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        let axis = axis_scale(&p, p.u, p.v, 0.0, "u");
+        assert_eq!(axis.caption, "x (mm)");
+        let t = ticks(&axis, -10.0, 30.0, 4.0);
+        assert!(
+            t.contains(&(10.0, "90".to_string())),
+            "{:?}",
+            t.iter().collect::<Vec<_>>()
+        );
+        assert!(t.iter().all(|(p, _)| (-10.0..=30.0).contains(p)));
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let o = plane([0.0; 3], [s, s, 0.0], [0.0, 0.0, 1.0]);
+        assert_eq!(
+            axis_scale(&o, o.u, o.v, 0.0, "u").caption,
+            "mm along plane u (RA)"
+        );
+    }
 }

@@ -2,17 +2,21 @@
 //!
 //! The samples of step s are a pure function of (seed, s), so the state is just the step, the
 //! parameters and Adam's moments; a fingerprint of the run's options guards against resuming
-//! with different ones. Format (little-endian): magic `DSCKPT01`, u64 fingerprint, u64 step,
-//! u64 Adam t, u64 n, then n f32 parameters, n f32 m, n f32 v, and a CRC-32 of all that. It is
-//! written atomically (temporary file, fsync, rename), so a kill mid-write leaves the previous
-//! checkpoint intact.
+//! with different ones. A timed run's planned schedule length is kept too, so that a resumed run
+//! follows the same learning rates. Format (little-endian): magic `DSCKPT02`, u64 fingerprint,
+//! u64 step, u64 Adam t, u64 n, u64 planned schedule length (0: none), then n f32 parameters,
+//! n f32 m, n f32 v, and a CRC-32 of all that. `DSCKPT01` files (the same without the planned
+//! length) are still read. It is written atomically (temporary file, fsync, rename), so a kill
+//! mid-write leaves the previous checkpoint intact.
 
 use super::adam::Adam;
 use anyhow::{bail, Context, Result};
 use dynaslice_data::atomic::write_atomically;
 use std::path::Path;
 
-const MAGIC: &[u8; 8] = b"DSCKPT01";
+const MAGIC: &[u8; 8] = b"DSCKPT02";
+/// The first format, without the planned schedule length.
+const MAGIC_V1: &[u8; 8] = b"DSCKPT01";
 
 /// A training state.
 #[derive(Clone, Debug, PartialEq)]
@@ -25,15 +29,19 @@ pub struct Checkpoint {
     pub params: Vec<f32>,
     /// Optimiser state.
     pub adam: Adam,
+    /// The learning-rate schedule's length planned by a timed run
+    /// ([`crate::trainer::TrainOptions::time_limit`]), once planned.
+    pub planned_steps: Option<u64>,
 }
 
 impl Checkpoint {
     /// Serialises and writes atomically.
     pub fn save(&self, path: &Path) -> Result<()> {
         let n = self.params.len();
-        let mut out = Vec::with_capacity(40 + 12 * n + 4);
+        let mut out = Vec::with_capacity(48 + 12 * n + 4);
         out.extend_from_slice(MAGIC);
-        for v in [self.fingerprint, self.step, self.adam.t, n as u64] {
+        let planned = self.planned_steps.unwrap_or(0);
+        for v in [self.fingerprint, self.step, self.adam.t, n as u64, planned] {
             out.extend_from_slice(&v.to_le_bytes());
         }
         for v in self.params.iter().chain(&self.adam.m).chain(&self.adam.v) {
@@ -50,10 +58,12 @@ impl Checkpoint {
         let bytes = std::fs::read(path)
             .with_context(|| format!("cannot read checkpoint {}", path.display()))?;
         let what = |msg: &str| format!("checkpoint {}: {msg}", path.display());
-        let expected = 40 + 12 * n + 4;
-        if bytes.len() < 8 || &bytes[..8] != MAGIC {
-            bail!(what("not a DynaSlice checkpoint"));
-        }
+        let header = match bytes.get(..8) {
+            Some(m) if m == MAGIC => 48,
+            Some(m) if m == MAGIC_V1 => 40,
+            _ => bail!(what("not a DynaSlice checkpoint")),
+        };
+        let expected = header + 12 * n + 4;
         if bytes.len() != expected {
             bail!(what(&format!(
                 "{} bytes, expected {expected} for {n} parameters",
@@ -73,7 +83,8 @@ impl Checkpoint {
         if word(3) != n as u64 {
             bail!(what("parameter count differs from this network"));
         }
-        let floats: Vec<f32> = body[40..]
+        let planned_steps = (header == 48 && word(4) > 0).then(|| word(4));
+        let floats: Vec<f32> = body[header..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
             .collect();
@@ -86,6 +97,7 @@ impl Checkpoint {
             step: word(1),
             params: floats[..n].to_vec(),
             adam,
+            planned_steps,
         })
     }
 }
@@ -106,9 +118,24 @@ mod tests {
             step: 7,
             params: vec![1.5, -2.0, 0.25],
             adam: adam.clone(),
+            planned_steps: Some(1234),
         };
         c.save(&path).unwrap();
         assert_eq!(Checkpoint::load(&path, 42, 3, &adam).unwrap(), c);
+        // A first-format file (no planned length) still reads.
+        let v2 = std::fs::read(&path).unwrap();
+        let mut v1 = [MAGIC_V1.as_slice(), &v2[8..40], &v2[48..v2.len() - 4]].concat();
+        v1.extend_from_slice(&dynaslice_core::crc32(&v1).to_le_bytes());
+        std::fs::write(&path, &v1).unwrap();
+        let old = Checkpoint::load(&path, 42, 3, &adam).unwrap();
+        assert_eq!(
+            old,
+            Checkpoint {
+                planned_steps: None,
+                ..c.clone()
+            }
+        );
+        c.save(&path).unwrap();
         let err = Checkpoint::load(&path, 43, 3, &adam)
             .unwrap_err()
             .to_string();

@@ -3,8 +3,39 @@
 
 use crate::data_sampler::SampleCounts;
 use crate::trainer::{Outcome, TrainOptions};
+use dynaslice_core::format::{MAX_CLASSES, MAX_NAME_LEN};
 use dynaslice_core::{Domain, Error, ModelBytes};
 use dynaslice_data::ClassInfo;
+
+/// Checks, before any training, that a model of `classes` in `domain` (from
+/// [`crate::data_sampler::domain_for`]) fits the model format: at most [`MAX_CLASSES`] classes,
+/// names of at most [`MAX_NAME_LEN`] bytes, and a domain whose centre, scale and time range are
+/// representable in the f32 header ([`Domain::validate`]: coordinates or an affine near 1e30
+/// are not). Without it such input is refused only when the trained model is written.
+pub fn check_model_limits(classes: &[ClassInfo], domain: &Domain) -> Result<(), String> {
+    if classes.len() > MAX_CLASSES {
+        return Err(format!(
+            "{} classes; a model holds at most {MAX_CLASSES} (select fewer, e.g. --labels)",
+            classes.len()
+        ));
+    }
+    if let Some(c) = classes.iter().find(|c| c.name.len() > MAX_NAME_LEN) {
+        return Err(format!(
+            "class name {:?} (label {}) is {} bytes long; a model stores at most {MAX_NAME_LEN} \
+             (rename it, e.g. with --label-names)",
+            c.name,
+            c.label,
+            c.name.len()
+        ));
+    }
+    domain.validate().map_err(|e| {
+        format!(
+            "the cross-sections' extent (centre {:?}, half-width {}, times {} + {}) does not fit \
+             a model's 32-bit header: {e}",
+            domain.center, domain.scale[0], domain.time_origin, domain.time_span
+        )
+    })
+}
 
 /// A training run's result with everything its model file records.
 pub struct TrainedModel<'a> {
@@ -65,5 +96,38 @@ impl TrainedModel<'_> {
             m += &format!("final_loss = {}\n", last.2);
         }
         m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn class(name: &str, label: i32) -> ClassInfo {
+        ClassInfo {
+            name: name.into(),
+            label,
+            color: None,
+        }
+    }
+
+    #[test]
+    fn limits_of_the_format_are_checked() {
+        let d = Domain::IDENTITY;
+        assert!(check_model_limits(&[class("liver", 1)], &d).is_ok());
+        let long = "x".repeat(MAX_NAME_LEN + 1);
+        let e = check_model_limits(&[class(&long, 3)], &d).unwrap_err();
+        assert!(e.contains("57 bytes") && e.contains("label 3"), "{e}");
+        let many: Vec<ClassInfo> = (0..65).map(|i| class("c", i)).collect();
+        assert!(check_model_limits(&many, &d)
+            .unwrap_err()
+            .contains("65 classes"));
+        let huge = Domain {
+            scale: [f32::INFINITY; 3],
+            ..d
+        };
+        assert!(check_model_limits(&[class("a", 1)], &huge)
+            .unwrap_err()
+            .contains("32-bit"));
     }
 }

@@ -31,9 +31,13 @@ pub trait Sampler {
 pub struct TrainOptions {
     /// Widths of the sine layers.
     pub widths: Vec<u32>,
-    /// Steps of the full schedule; the run stops here at the latest.
+    /// Steps of the full schedule; the run stops here at the latest (with a `time_limit`, the
+    /// most the plan may choose).
     pub steps: u64,
-    /// Wall-clock budget; the run stops early when it is spent.
+    /// Wall-clock budget. The run is planned to fit it: the step time is measured over the first
+    /// [`CALIBRATION_STEPS`] and the learning-rate schedule set to end, at `lr_final`, when the
+    /// budget is spent (at most `steps`; [`Outcome::planned_steps`]). The run also stops when
+    /// the budget is spent, whatever the plan.
     pub time_limit: Option<Duration>,
     /// SIREN's ω₀: the first layer's spatial frequency scale over the normalised cube.
     pub omega_0: f32,
@@ -125,6 +129,16 @@ pub struct Progress {
     pub elapsed: f64,
 }
 
+/// Steps held at the initial learning rate (after any warm-up ramp) before the cosine starts.
+/// A timed run measures its step time over them (all but the first step of the process, which
+/// pays for starting threads and warming caches) and plans the schedule from that, so the
+/// learning rates of these steps cannot depend on the plan.
+pub const CALIBRATION_STEPS: u64 = 10;
+
+/// Share of the time budget a plan fills: the rest absorbs step-time noise and the final
+/// checkpoint, so the schedule ends before the hard stop.
+const PLAN_SHARE: f64 = 0.95;
+
 /// The trained network and its history.
 pub struct Outcome {
     /// The network.
@@ -135,12 +149,23 @@ pub struct Outcome {
     pub history: Vec<(u64, LossTerms, f64)>,
     /// Wall time of this process's training.
     pub elapsed: Duration,
+    /// Length of the learning-rate schedule a timed run planned (recorded in its checkpoint and
+    /// reused on resume); `None` when the schedule was `steps` (no time limit, or the budget ran
+    /// out before the plan).
+    pub planned_steps: Option<u64>,
 }
 
-/// Learning rate at `step` (0-based): cosine from `lr` to `lr_final` over the schedule, scaled
-/// by (step + 1) / `warmup_steps` during the warm-up.
+/// Learning rate at `step` (0-based) of a schedule `o.steps` long ([`schedule_rate`]).
 pub fn learning_rate(o: &TrainOptions, step: u64) -> f32 {
-    let x = (step as f64 / o.steps.max(1) as f64).min(1.0);
+    schedule_rate(o, o.steps, step)
+}
+
+/// Learning rate at `step` (0-based) of a schedule `length` steps long: `lr` for the first
+/// [`CALIBRATION_STEPS`], then a cosine to `lr_final` at step `length`; scaled by
+/// (step + 1) / `warmup_steps` during the warm-up.
+pub fn schedule_rate(o: &TrainOptions, length: u64, step: u64) -> f32 {
+    let hold = CALIBRATION_STEPS.min(length);
+    let x = (step.saturating_sub(hold) as f64 / (length - hold).max(1) as f64).min(1.0);
     let c = 0.5 * (1.0 + (std::f64::consts::PI * x).cos());
     let warmup = if step < o.warmup_steps {
         (step + 1) as f64 / o.warmup_steps as f64
@@ -148,6 +173,18 @@ pub fn learning_rate(o: &TrainOptions, step: u64) -> f32 {
         1.0
     };
     (warmup * (o.lr_final as f64 + (o.lr - o.lr_final) as f64 * c)) as f32
+}
+
+/// The schedule length that ends a run, now at `step` after `elapsed`, when `limit` is spent
+/// (a share [`PLAN_SHARE`] of it), at `per_step` seconds a step; between `step` and `cap`.
+fn plan(step: u64, cap: u64, elapsed: Duration, limit: Duration, per_step: f64) -> u64 {
+    let left = (limit.as_secs_f64() * PLAN_SHARE - elapsed.as_secs_f64()).max(0.0);
+    let more = if per_step > 0.0 {
+        (left / per_step).floor().min(u64::MAX as f64 / 2.0) as u64
+    } else {
+        cap
+    };
+    step.saturating_add(more).clamp(step, cap.max(step))
 }
 
 /// FNV-1a over the options and the data digest: what a checkpoint must match.
@@ -188,47 +225,67 @@ pub fn train(
     let mut adam = Adam::new(net.params.len(), AdamConfig::default());
     let print = fingerprint(o, num_classes, sampler.fingerprint());
     let mut step = 0;
+    let mut planned_steps = None;
     if let (true, Some(path)) = (o.resume, &o.checkpoint) {
         if path.exists() {
             let c = Checkpoint::load(path, print, net.params.len(), &adam)?;
             net.params = c.params;
             adam = c.adam;
             step = c.step;
+            planned_steps = c.planned_steps;
         }
     }
     let mut objective = Objective::new(&net, o.threads.max(1), sampler.max_set_len());
     let mut batch = Batch::default();
     let mut grad = vec![0.0; net.params.len()];
     let mut history = Vec::new();
+    let mut step_seconds = Vec::new();
     let start = Instant::now();
     let mut last_checkpoint = start;
-    let save = |net: &Network, adam: &Adam, step: u64| -> Result<()> {
+    let save = |net: &Network, adam: &Adam, step: u64, planned_steps| -> Result<()> {
         match &o.checkpoint {
             Some(path) => Checkpoint {
                 fingerprint: print,
                 step,
                 params: net.params.clone(),
                 adam: adam.clone(),
+                planned_steps,
             }
             .save(path),
             None => Ok(()),
         }
     };
-    while step < o.steps {
-        if o.time_limit.is_some_and(|limit| start.elapsed() >= limit) {
+    loop {
+        let length = planned_steps.unwrap_or(o.steps);
+        if step >= length || o.time_limit.is_some_and(|limit| start.elapsed() >= limit) {
             break;
         }
+        let began = Instant::now();
         sampler.sample(o.seed, step, &mut batch);
         let terms = pool.install(|| objective.evaluate(&net, &batch, &o.loss, &mut grad));
-        let lr = learning_rate(o, step);
+        let lr = schedule_rate(o, length, step);
         adam.step(&mut net.params, &grad, lr);
         net.clamp_temporal_frequencies();
         step += 1;
+        if let (None, Some(limit)) = (planned_steps, o.time_limit) {
+            step_seconds.push(began.elapsed().as_secs_f64());
+            // Planned as soon as the calibration steps are done, before this step's checkpoint
+            // or an early stop, so every checkpoint after them holds the plan.
+            if step == CALIBRATION_STEPS.min(o.steps) {
+                // The first step of a process is slower (threads, caches): left out when others
+                // were measured.
+                let first = usize::from(step_seconds.len() > 1);
+                let measured = &mut step_seconds[first..];
+                measured.sort_by(f64::total_cmp);
+                let per_step = measured[measured.len() / 2];
+                planned_steps = Some(plan(step, o.steps, start.elapsed(), limit, per_step));
+            }
+        }
         let loss = terms.total(&o.loss);
         history.push((step, terms, loss));
         let flow = on_step(&Progress {
             step,
-            steps: o.steps,
+            steps: length,
             terms,
             loss,
             lr,
@@ -238,16 +295,17 @@ pub fn train(
             break;
         }
         if last_checkpoint.elapsed() >= o.checkpoint_every {
-            save(&net, &adam, step)?;
+            save(&net, &adam, step, planned_steps)?;
             last_checkpoint = Instant::now();
         }
     }
-    save(&net, &adam, step)?;
+    save(&net, &adam, step, planned_steps)?;
     Ok(Outcome {
         network: net,
         steps_done: step,
         history,
         elapsed: start.elapsed(),
+        planned_steps,
     })
 }
 
@@ -422,5 +480,81 @@ mod tests {
             .iter()
             .zip(&straight.network.params)
             .all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+
+    /// A timed run plans its schedule after the calibration steps and records the plan in its
+    /// checkpoint: interrupted and resumed, it ends bit for bit where a run of exactly the
+    /// planned steps ends, with the cosine completed.
+    #[test]
+    fn timed_run_plans_its_schedule_and_resumes_bit_identical() {
+        let dir = tempfile::tempdir().unwrap();
+        let ckpt = dir.path().join("timed.ckpt");
+        let timed = |limit: f64| TrainOptions {
+            time_limit: Some(Duration::from_secs_f64(limit)),
+            ..options(1_000_000, Some(ckpt.clone()))
+        };
+        let stopped = train(&timed(3.0), 1, &mut Sphere, |p| {
+            if p.step == CALIBRATION_STEPS + 3 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        })
+        .unwrap();
+        let planned = stopped
+            .planned_steps
+            .expect("planned after the calibration steps");
+        assert!(
+            planned < 1_000_000,
+            "the budget, not the cap, sets the plan"
+        );
+        assert!(planned >= CALIBRATION_STEPS);
+        // Resumed with another budget, the recorded plan still decides the schedule.
+        let mut last_lr = 0.0;
+        let resumed = train(&timed(3600.0), 1, &mut Sphere, |p| {
+            assert_eq!(p.steps, planned);
+            last_lr = p.lr;
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        assert_eq!(resumed.steps_done, planned);
+        assert_eq!(resumed.planned_steps, Some(planned));
+        let straight = train(&options(planned, None), 1, &mut Sphere, |_| {
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        assert_eq!(straight.planned_steps, None);
+        let bits = |o: &Outcome| {
+            o.network
+                .params
+                .iter()
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&resumed), bits(&straight));
+        let o = options(planned, None);
+        if planned > CALIBRATION_STEPS + 1 {
+            assert!((last_lr - schedule_rate(&o, planned, planned - 1)).abs() == 0.0);
+            assert!(last_lr < 0.01 * o.lr + o.lr_final, "{last_lr}");
+        }
+    }
+
+    #[test]
+    fn plans_fill_the_budget_within_the_cap() {
+        let secs = Duration::from_secs_f64;
+        // 100 s budget, 5 s spent at step 10, 0.5 s a step: (95 − 5) / 0.5 = 180 more.
+        assert_eq!(plan(10, 10_000, secs(5.0), secs(100.0), 0.5), 190);
+        assert_eq!(plan(10, 50, secs(5.0), secs(100.0), 0.5), 50);
+        // Budget already spent: no more steps; a zero step time: the cap.
+        assert_eq!(plan(10, 50, secs(200.0), secs(100.0), 0.5), 10);
+        assert_eq!(plan(10, 50, secs(1.0), secs(100.0), 0.0), 50);
+        // The schedule holds lr through the calibration steps, then the cosine ends at lr_final.
+        let o = options(100, None);
+        for s in 0..CALIBRATION_STEPS {
+            assert_eq!(schedule_rate(&o, 40, s), o.lr);
+            assert_eq!(schedule_rate(&o, 4000, s), o.lr);
+        }
+        assert!(schedule_rate(&o, 40, 11) < o.lr);
+        assert!((schedule_rate(&o, 40, 40) - o.lr_final).abs() < 1e-9);
     }
 }

@@ -3,14 +3,20 @@
 //! (`dynaslice_data::nifti_stream`) with each class's source label value. `dynaslice labels` is
 //! the command.
 //!
-//! Memory is bounded by one frame: a frame's labels are computed (in parallel over z-slices),
+//! A frame's labels are computed coarse to fine ([`pruned`]): the network is evaluated where a
+//! label can change (near the boundaries between labels) and blocks far from every boundary are
+//! filled, with the same labels as evaluating every voxel ([`Evaluation::Dense`], the check).
+//!
+//! Memory is bounded by one frame: a frame's labels are computed (in parallel over z-slabs),
 //! counted, encoded and written before the next frame is started.
 
 #![warn(missing_docs)]
 
+pub mod pruned;
 pub mod voxel_grid;
 
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
+pub use pruned::{Evaluation, PruneStats, DEFAULT_SAFETY};
 pub use voxel_grid::VoxelGrid;
 
 use anyhow::{bail, Result};
@@ -47,10 +53,46 @@ pub fn source_labels(model: &Model) -> Result<Vec<i32>> {
 }
 
 /// The Eq. 11 label indices (0..=K, not source values) of every voxel of `grid` at world time
-/// `t`, x fastest, into `out`. An error if the model is not finite at some voxel.
+/// `t`, x fastest, into `out`, by the default [`Evaluation`]. An error if the model is not finite
+/// at an evaluated voxel.
 pub fn label_indices(model: &Model, grid: &VoxelGrid, t: f64, out: &mut [u32]) -> Result<()> {
+    label_indices_with(model, grid, t, Evaluation::default(), out).map(|_| ())
+}
+
+/// [`label_indices`] by `evaluation`; returns how many points the network was evaluated at.
+pub fn label_indices_with(
+    model: &Model,
+    grid: &VoxelGrid,
+    t: f64,
+    evaluation: Evaluation,
+    out: &mut [u32],
+) -> Result<PruneStats> {
+    evaluation.validate()?;
+    if grid.voxels_per_frame() == 0 {
+        return Ok(PruneStats::default());
+    }
+    match evaluation {
+        Evaluation::Dense => {
+            dense_label_indices(model, grid, t, out)?;
+            let voxels = grid.voxels_per_frame() as u64;
+            Ok(PruneStats {
+                evaluated: voxels,
+                voxels,
+            })
+        }
+        Evaluation::Pruned { safety } => pruned::pruned_label_indices(model, grid, t, safety, out),
+    }
+}
+
+/// Every voxel through the network, in parallel over z-slices.
+fn dense_label_indices(model: &Model, grid: &VoxelGrid, t: f64, out: &mut [u32]) -> Result<()> {
     let [nx, ny, _] = grid.dims;
-    assert_eq!(out.len(), grid.voxels_per_frame(), "one label per voxel");
+    anyhow::ensure!(
+        out.len() == grid.voxels_per_frame(),
+        "one label per voxel: {} labels for {} voxels",
+        out.len(),
+        grid.voxels_per_frame()
+    );
     out.par_chunks_mut(nx * ny).enumerate().try_for_each_init(
         || (Scratch::boxed(), Vec::with_capacity(CHUNK)),
         |(scratch, points), (k, slab)| {
@@ -77,15 +119,27 @@ pub fn label_indices(model: &Model, grid: &VoxelGrid, t: f64, out: &mut [u32]) -
     )
 }
 
-/// Writes `model`'s label volume on `grid` to `path` (`.nii` or `.nii.gz`), calling
-/// `on_frame(f)` after frame f is written. Returns the voxel count of each label index
-/// (0 = background, k = class k) per frame.
+/// Writes `model`'s label volume on `grid` to `path` (`.nii` or `.nii.gz`) by the default
+/// [`Evaluation`], calling `on_frame(f)` after frame f is written. Returns the voxel count of
+/// each label index (0 = background, k = class k) per frame.
 pub fn write_model_labels(
     model: &Model,
     grid: &VoxelGrid,
     path: &Path,
+    on_frame: impl FnMut(usize),
+) -> Result<Vec<Vec<u64>>> {
+    write_model_labels_with(model, grid, path, Evaluation::default(), on_frame)
+}
+
+/// [`write_model_labels`] by `evaluation` (`Evaluation::Dense` is `dynaslice labels --dense`).
+pub fn write_model_labels_with(
+    model: &Model,
+    grid: &VoxelGrid,
+    path: &Path,
+    evaluation: Evaluation,
     mut on_frame: impl FnMut(usize),
 ) -> Result<Vec<Vec<u64>>> {
+    evaluation.validate()?;
     let values = source_labels(model)?;
     let lo = values.iter().copied().min().unwrap_or(0);
     let hi = values.iter().copied().max().unwrap_or(0);
@@ -104,7 +158,7 @@ pub fn write_model_labels(
     let mut labels = vec![0i32; n];
     let mut counts = Vec::with_capacity(grid.times.len());
     for (f, &t) in grid.times.iter().enumerate() {
-        label_indices(model, grid, t, &mut indices)?;
+        label_indices_with(model, grid, t, evaluation, &mut indices)?;
         let mut count = vec![0u64; values.len()];
         for (l, &i) in labels.iter_mut().zip(&indices) {
             count[i as usize] += 1;

@@ -1,4 +1,10 @@
-"""ctypes binding of the DynaSlice C library (libdynaslice), with no dependencies.
+"""C-ABI example: a ctypes binding of the DynaSlice C library (libdynaslice), no dependencies.
+
+This is not the Python package. For NumPy batch queries, gradients, ∂f/∂t, meshes, label
+volumes and training, install the package instead: ``pip install ./dynaslice-python``
+(docs/python.md). This file stays as the C ABI's Python example, for hosts that can load a
+shared library but not install a wheel, and the C ABI's tests run it (dynaslice-ffi/tests).
+Do not put this folder on ``sys.path`` next to the installed package: both are ``dynaslice``.
 
 Loadable from any Python 3 (3D Slicer's Python console included)::
 

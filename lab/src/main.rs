@@ -20,11 +20,60 @@ enum Command {
     /// Reproduce the paper's tables (Table 3 on the synthetic benchmark, Table 2 on synthetic and
     /// real multi-organ data, static `.csl` reconstructions) as markdown.
     Results(results::Args),
+    /// Timed training at equal wall time on the synthetic benchmark: the schedule planned to end
+    /// at the budget against a `--cap`-step cosine cut off there (markdown rows on stdout).
+    Schedule(ScheduleArgs),
+}
+
+/// Arguments of `dynaslice-lab schedule`.
+#[derive(clap::Args, Debug)]
+struct ScheduleArgs {
+    /// Training wall time per run.
+    #[arg(long, default_value_t = 1.0)]
+    minutes: f64,
+    /// Seeds 0..N.
+    #[arg(long, default_value_t = 2)]
+    seeds: u64,
+    /// The cut-off runs' schedule length (`dynaslice train`'s default `--steps`).
+    #[arg(long, default_value_t = 3000)]
+    cap: u64,
+    /// Shapes (blob, tube, torus, chambers).
+    #[arg(long, value_delimiter = ',', default_value = "chambers")]
+    shapes: Vec<String>,
+    /// Worker threads.
+    #[arg(long, default_value_t = std::thread::available_parallelism().map_or(1, |n| n.get()))]
+    threads: usize,
+}
+
+fn schedule(a: ScheduleArgs) -> anyhow::Result<()> {
+    use dynaslice_train::trainer::TrainOptions;
+    let protocol = experiments::Protocol {
+        minutes: a.minutes,
+        options: TrainOptions {
+            threads: a.threads.max(1),
+            ..TrainOptions::default()
+        },
+        counts: Default::default(),
+        temporal_factor: dynaslice_train::temporal_bound::DEFAULT_TEMPORAL_FACTOR,
+    };
+    println!("| shape | schedule | seed | steps / schedule | s | IoU | CD×10⁴ |");
+    println!("|---|---|---|---|---|---|---|");
+    for name in &a.shapes {
+        let shape = dynaslice_data::synth::Shape::ALL
+            .into_iter()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| anyhow::anyhow!("unknown shape {name:?}"))?;
+        for r in experiments::schedule::compare(shape, &protocol, a.seeds, a.cap)? {
+            println!("{}", experiments::schedule::row(shape, &r));
+        }
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {
     let outcome = match Lab::parse().command {
         Command::Results(args) => results::run(args),
+        Command::Schedule(args) => schedule(args),
     };
     match outcome {
         Ok(()) => ExitCode::SUCCESS,

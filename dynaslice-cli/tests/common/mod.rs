@@ -1,5 +1,8 @@
 //! Helpers shared by the command-line tests.
 
+// Each test file uses some of them.
+#![allow(dead_code)]
+
 pub use dynaslice_test_support::fixtures::{succeeded, write_sequence};
 use std::path::Path;
 use std::process::Command;

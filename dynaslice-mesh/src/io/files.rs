@@ -3,8 +3,9 @@
 //! (`series.pvd`) that animates them.
 
 use super::super::Mesh;
-use super::{pvd, write, Format};
+use super::{pvd, write, Format, MeshInfo, Space};
 use anyhow::{Context, Result};
+use dynaslice_core::ClassInfo;
 use dynaslice_data::atomic::write_atomically;
 use std::path::{Path, PathBuf};
 
@@ -34,6 +35,7 @@ pub fn class_tag(k: usize, name: &str) -> String {
 pub struct MeshFiles {
     output: PathBuf,
     format: Format,
+    space: Space,
     kind: Kind,
     entries: Vec<pvd::Entry>,
 }
@@ -50,11 +52,12 @@ enum Kind {
 
 impl MeshFiles {
     /// The files of a mesh at one time of `classes` classes: `path` itself for one class, else
-    /// `STEM_classK_name.EXT` beside it; the format from the extension.
-    pub fn single(path: &Path, classes: usize) -> Result<MeshFiles> {
+    /// `STEM_classK_name.EXT` beside it; the format from the extension, vertices in `space`.
+    pub fn single(path: &Path, classes: usize, space: Space) -> Result<MeshFiles> {
         Ok(MeshFiles {
             output: path.to_path_buf(),
             format: Format::from_path(path)?,
+            space,
             kind: if classes == 1 {
                 Kind::One
             } else {
@@ -65,13 +68,14 @@ impl MeshFiles {
     }
 
     /// The files of a time series in directory `dir` (created if missing):
-    /// `classK_name_tIIII.EXT`, IIII the time's index.
-    pub fn series(dir: &Path, format: Format) -> Result<MeshFiles> {
+    /// `classK_name_tIIII.EXT`, IIII the time's index, vertices in `space`.
+    pub fn series(dir: &Path, format: Format, space: Space) -> Result<MeshFiles> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create directory {}", dir.display()))?;
         Ok(MeshFiles {
             output: dir.to_path_buf(),
             format,
+            space,
             kind: Kind::Series,
             entries: Vec::new(),
         })
@@ -95,14 +99,31 @@ impl MeshFiles {
         }
     }
 
-    /// Writes the mesh of class `k` (named `name`) at the `i`-th time, world time `t`, atomically,
-    /// and records it for the collection.
-    pub fn write(&mut self, i: usize, t: f32, k: usize, name: &str, mesh: &Mesh) -> Result<()> {
-        let path = self.path(i, k, name);
-        write(&path, mesh, self.format, name)?;
+    /// The frame the files' vertices are written in.
+    pub fn space(&self) -> Space {
+        self.space
+    }
+
+    /// Writes the mesh (RAS world coordinates) of class `k` (0-based; its name and label in
+    /// `class`) at the `i`-th time, world time `t`, atomically, and records it for the
+    /// collection.
+    pub fn write(
+        &mut self,
+        i: usize,
+        t: f32,
+        k: usize,
+        class: ClassInfo<'_>,
+        mesh: &Mesh,
+    ) -> Result<()> {
+        let path = self.path(i, k, class.name);
+        let info = MeshInfo::new(class.name, self.space)
+            .with_label(class.label)
+            .with_time(f64::from(t));
+        write(&path, mesh, self.format, &info)?;
         self.entries.push(pvd::Entry {
             time: t,
             part: k as u32 + 1,
+            name: class.name.to_string(),
             file: path
                 .file_name()
                 .unwrap_or_default()
@@ -139,27 +160,37 @@ mod tests {
     #[test]
     fn paths_per_kind_and_the_collection_of_a_vtp_series() {
         let dir = tempfile::tempdir().unwrap();
-        let one = MeshFiles::single(&dir.path().join("a.ply"), 1).unwrap();
+        let one = MeshFiles::single(&dir.path().join("a.ply"), 1, Space::Lps).unwrap();
         assert_eq!(one.path(0, 0, "x"), dir.path().join("a.ply"));
-        let many = MeshFiles::single(&dir.path().join("a.ply"), 2).unwrap();
+        assert_eq!(one.space(), Space::Lps);
+        let many = MeshFiles::single(&dir.path().join("a.ply"), 2, Space::Ras).unwrap();
         assert_eq!(
             many.path(0, 1, "lung"),
             dir.path().join("a_class2_lung.ply")
         );
-        assert!(MeshFiles::single(&dir.path().join("a.txt"), 1).is_err());
+        assert!(MeshFiles::single(&dir.path().join("a.txt"), 1, Space::Lps).is_err());
 
         let series_dir = dir.path().join("s");
-        let mut series = MeshFiles::series(&series_dir, Format::Vtp).unwrap();
+        let mut series = MeshFiles::series(&series_dir, Format::Vtp, Space::Lps).unwrap();
         let mesh = tetrahedron();
-        series.write(0, 0.0, 0, "a", &mesh).unwrap();
-        series.write(1, 0.5, 0, "a", &mesh).unwrap();
-        assert!(series_dir.join("class1_a_t0001.vtp").exists());
+        let a = ClassInfo {
+            name: "a",
+            label: 4,
+        };
+        series.write(0, 0.0, 0, a, &mesh).unwrap();
+        series.write(1, 0.5, 0, a, &mesh).unwrap();
+        let vtp = std::fs::read(series_dir.join("class1_a_t0001.vtp")).unwrap();
+        let vtp = String::from_utf8_lossy(&vtp);
+        assert!(vtp.contains("Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">0.5<"));
+        assert!(vtp.contains("Name=\"Label\" NumberOfTuples=\"1\" format=\"ascii\">4<"));
         let pvd = series.finish().unwrap().unwrap();
         let text = std::fs::read_to_string(pvd).unwrap();
-        assert!(text.contains("timestep=\"0.5\" group=\"\" part=\"1\" file=\"class1_a_t0001.vtp\""));
+        assert!(text.contains(
+            "timestep=\"0.5\" group=\"\" part=\"1\" name=\"a\" file=\"class1_a_t0001.vtp\""
+        ));
 
-        let mut ply = MeshFiles::series(&series_dir, Format::Ply).unwrap();
-        ply.write(0, 0.0, 0, "a", &mesh).unwrap();
+        let mut ply = MeshFiles::series(&series_dir, Format::Ply, Space::Lps).unwrap();
+        ply.write(0, 0.0, 0, a, &mesh).unwrap();
         assert_eq!(ply.finish().unwrap(), None);
     }
 }

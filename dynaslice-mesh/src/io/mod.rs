@@ -1,12 +1,19 @@
 //! Mesh file formats, one file each. Every writer builds the file in memory and writes it
 //! atomically (temporary file, fsync, rename), so an interrupted run leaves no partial mesh.
 //!
-//! | format | geometry | vertex normals | `normal_velocity` |
-//! |--------|----------|----------------|-------------------|
-//! | PLY (binary little-endian) | indexed | `nx ny nz` | `normal_velocity` float property |
-//! | OBJ | indexed | `vn` | — (no per-vertex scalars in OBJ) |
-//! | STL (binary) | triangle soup (the format has no indices) | facet normals only | — |
-//! | VTP (VTK XML PolyData) | indexed | point data `Normals` | point data `normal_velocity` |
+//! | format | geometry | vertex normals | `normal_velocity` | coordinate frame tag |
+//! |--------|----------|----------------|-------------------|----------------------|
+//! | PLY (binary little-endian) | indexed | `nx ny nz` | `normal_velocity` float property | `comment SPACE=…` |
+//! | OBJ | indexed | `vn` | — (no per-vertex scalars in OBJ) | `# … SPACE=…` first comment |
+//! | STL (binary) | triangle soup (the format has no indices) | facet normals only | — | `SPACE=…` in the 80-byte header |
+//! | VTP (VTK XML PolyData) | indexed | point data `Normals` | point data `normal_velocity` | field data string array `SPACE` |
+//!
+//! Meshes are computed in our world frame, RAS (NIfTI's: +x right, +y anterior, +z superior).
+//! Every writer converts positions and normals into the [`Space`] asked for and says which in
+//! the file, the way 3D Slicer reads it (`vtkMRMLModelStorageNode`: a `SPACE=RAS` / `SPACE=LPS`
+//! substring in the PLY comments, the OBJ's leading comment or the STL header; a `SPACE` string
+//! array in a VTP's field data). VTP files also carry the class name, label value and time as
+//! field data (`ClassName`, `Label`, `TimeValue`), which ParaView shows.
 
 mod files;
 mod obj;
@@ -19,9 +26,11 @@ pub use files::{class_tag, MeshFiles};
 pub use stl::read_stl;
 
 use super::Mesh;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, ensure, Context, Result};
 use dynaslice_data::atomic::write_atomically;
+use std::fmt;
 use std::path::Path;
+use std::str::FromStr;
 
 /// A mesh file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -70,21 +79,187 @@ impl Format {
     }
 }
 
-/// `mesh` encoded as a file of `format`; `name` (e.g. the class name) goes in the header where
-/// the format has one.
-pub fn encode(mesh: &Mesh, format: Format, name: &str) -> Result<Vec<u8>> {
-    match format {
-        Format::Ply => ply::encode(mesh, name),
-        Format::Obj => Ok(obj::encode(mesh, name)),
-        Format::Stl => stl::encode(mesh),
-        Format::Vtp => vtp::encode(mesh, name),
+/// The coordinate frame of a mesh file's vertices.
+///
+/// Our world is RAS; [`Space::Lps`] (the default) negates x and y, a rotation by 180° about z,
+/// so triangle winding and outward normals stay outward. LPS is what 3D Slicer assumes for a
+/// model file without a tag and what ITK-based tools use, so the default lands on the label
+/// volume in Slicer with or without the tag; RAS suits tools that place meshes in NIfTI world
+/// coordinates directly (e.g. nibabel, FreeSurfer surfaces).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum Space {
+    /// Right, anterior, superior: our world frame, unchanged.
+    Ras,
+    /// Left, posterior, superior: x and y negated (DICOM's and ITK's patient frame).
+    #[default]
+    Lps,
+}
+
+impl Space {
+    /// Both frames.
+    pub const ALL: [Space; 2] = [Space::Ras, Space::Lps];
+
+    /// The frame's name as the file tags spell it: `RAS` or `LPS`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Space::Ras => "RAS",
+            Space::Lps => "LPS",
+        }
+    }
+
+    /// The tag 3D Slicer looks for in headers and comments: `SPACE=RAS` or `SPACE=LPS`.
+    pub fn tag(self) -> String {
+        format!("SPACE={}", self.name())
+    }
+
+    /// A point or vector of our RAS world in this frame. The map is its own inverse, so it also
+    /// takes this frame's coordinates back to RAS.
+    #[inline]
+    pub fn from_ras(self, p: [f32; 3]) -> [f32; 3] {
+        match self {
+            Space::Ras => p,
+            Space::Lps => [-p[0], -p[1], p[2]],
+        }
+    }
+
+    /// A point or vector of this frame in our RAS world (the same map as [`Space::from_ras`]).
+    #[inline]
+    pub fn to_ras(self, p: [f32; 3]) -> [f32; 3] {
+        self.from_ras(p)
+    }
+
+    /// The frame a header or comment names, by 3D Slicer's rule: the first of `SPACE=RAS`,
+    /// `SPACE=LPS` found as a substring (RAS checked first, as Slicer does); `None` when neither.
+    pub fn find_tag(text: &[u8]) -> Option<Space> {
+        let has = |needle: &[u8]| text.windows(needle.len()).any(|w| w == needle);
+        if has(b"SPACE=RAS") {
+            Some(Space::Ras)
+        } else if has(b"SPACE=LPS") {
+            Some(Space::Lps)
+        } else {
+            None
+        }
     }
 }
 
-/// Writes `mesh` to `path` as `format`, atomically.
-pub fn write(path: &Path, mesh: &Mesh, format: Format, name: &str) -> Result<()> {
+impl fmt::Display for Space {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Space::Ras => "ras",
+            Space::Lps => "lps",
+        })
+    }
+}
+
+impl FromStr for Space {
+    type Err = anyhow::Error;
+
+    /// `ras` or `lps`, case-insensitive.
+    fn from_str(s: &str) -> Result<Space> {
+        match s.to_ascii_lowercase().as_str() {
+            "ras" => Ok(Space::Ras),
+            "lps" => Ok(Space::Lps),
+            _ => bail!("unknown coordinate frame {s:?}; use ras or lps"),
+        }
+    }
+}
+
+/// What a mesh file records besides its geometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeshInfo<'a> {
+    /// The class name: PLY comment, OBJ object name, STL header, VTP `ClassName`.
+    pub name: &'a str,
+    /// The class's label value in its source (VTP field data `Label`), when known.
+    pub label: Option<i32>,
+    /// World time of the mesh (VTP field data `TimeValue`), when known.
+    pub time: Option<f64>,
+    /// The frame the vertices are written in.
+    pub space: Space,
+}
+
+impl<'a> MeshInfo<'a> {
+    /// A mesh named `name` written in `space`, with no label or time.
+    pub fn new(name: &'a str, space: Space) -> Self {
+        MeshInfo {
+            name,
+            label: None,
+            time: None,
+            space,
+        }
+    }
+
+    /// With the class's label value.
+    pub fn with_label(self, label: i32) -> Self {
+        MeshInfo {
+            label: Some(label),
+            ..self
+        }
+    }
+
+    /// With the mesh's world time.
+    pub fn with_time(self, time: f64) -> Self {
+        MeshInfo {
+            time: Some(time),
+            ..self
+        }
+    }
+}
+
+/// `text` with every control character (line breaks included) replaced by a space, so a class
+/// name cannot end a header line or comment early.
+pub(crate) fn one_line(text: &str) -> String {
+    text.chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .collect()
+}
+
+/// `mesh` with positions and normals converted from RAS into `space`, after checking that its
+/// parts fit together (indices in range, attributes one per vertex), so no encoder can index
+/// out of bounds.
+fn in_space(mesh: &Mesh, space: Space) -> Result<Mesh> {
+    let n = mesh.positions.len();
+    ensure!(
+        mesh.normals.is_empty() || mesh.normals.len() == n,
+        "{} normals for {n} vertices",
+        mesh.normals.len()
+    );
+    ensure!(
+        mesh.normal_velocity.is_empty() || mesh.normal_velocity.len() == n,
+        "{} normal velocities for {n} vertices",
+        mesh.normal_velocity.len()
+    );
+    if let Some(t) = mesh
+        .triangles
+        .iter()
+        .find(|t| t.iter().any(|&i| i as usize >= n))
+    {
+        bail!("triangle {t:?} refers to a vertex beyond the {n} vertices");
+    }
+    Ok(Mesh {
+        positions: mesh.positions.iter().map(|&p| space.from_ras(p)).collect(),
+        triangles: mesh.triangles.clone(),
+        normals: mesh.normals.iter().map(|&v| space.from_ras(v)).collect(),
+        normal_velocity: mesh.normal_velocity.clone(),
+    })
+}
+
+/// `mesh` (in RAS world coordinates) encoded as a file of `format`, its vertices in
+/// `info.space` and the file tagged with it.
+pub fn encode(mesh: &Mesh, format: Format, info: &MeshInfo) -> Result<Vec<u8>> {
+    let mesh = in_space(mesh, info.space)?;
+    match format {
+        Format::Ply => ply::encode(&mesh, info),
+        Format::Obj => Ok(obj::encode(&mesh, info)),
+        Format::Stl => stl::encode(&mesh, info),
+        Format::Vtp => Ok(vtp::encode(&mesh, info)),
+    }
+}
+
+/// Writes `mesh` (in RAS world coordinates) to `path` as `format`, atomically, its vertices in
+/// `info.space` and the file tagged with it.
+pub fn write(path: &Path, mesh: &Mesh, format: Format, info: &MeshInfo) -> Result<()> {
     let bytes =
-        encode(mesh, format, name).with_context(|| format!("cannot encode {}", path.display()))?;
+        encode(mesh, format, info).with_context(|| format!("cannot encode {}", path.display()))?;
     write_atomically(path, &bytes)
 }
 
@@ -124,5 +299,57 @@ mod tests {
             .to_string();
         assert!(e.contains("dir/out.off") && e.contains("\"off\""), "{e}");
         assert!(tetrahedron().topology().is_closed_manifold());
+    }
+
+    #[test]
+    fn spaces_parse_print_and_map() {
+        assert_eq!("RAS".parse::<Space>().unwrap(), Space::Ras);
+        assert_eq!("lps".parse::<Space>().unwrap(), Space::Lps);
+        let e = "xyz".parse::<Space>().unwrap_err().to_string();
+        assert!(e.contains("\"xyz\"") && e.contains("ras or lps"), "{e}");
+        assert_eq!(Space::default(), Space::Lps);
+        for s in Space::ALL {
+            assert_eq!(s.to_string().parse::<Space>().unwrap(), s);
+            assert_eq!(Space::find_tag(s.tag().as_bytes()), Some(s));
+            assert_eq!(s.to_ras(s.from_ras([1.0, 2.0, 3.0])), [1.0, 2.0, 3.0]);
+        }
+        assert_eq!(Space::Lps.from_ras([1.0, -2.0, 3.0]), [-1.0, 2.0, 3.0]);
+        assert_eq!(
+            Space::find_tag(b"3D Slicer output. SPACE=LPS"),
+            Some(Space::Lps)
+        );
+        assert_eq!(Space::find_tag(b"space=lps"), None);
+    }
+
+    #[test]
+    fn lps_keeps_the_winding_outward() {
+        // x, y -> -x, -y is a rotation: the enclosed volume keeps its sign.
+        let mesh = tetrahedron();
+        let lps = in_space(&mesh, Space::Lps).unwrap();
+        assert_eq!(lps.positions[1], [-1.0, 0.0, 0.0]);
+        assert_eq!(lps.normals[2], [0.0, -1.0, 0.0]);
+        assert!((lps.enclosed_volume() - mesh.enclosed_volume()).abs() < 1e-12);
+        assert!(mesh.enclosed_volume() > 0.0);
+    }
+
+    #[test]
+    fn inconsistent_meshes_are_refused_not_indexed() {
+        let mut bad = tetrahedron();
+        bad.triangles.push([0, 1, 9]);
+        for format in Format::ALL {
+            let e = encode(&bad, format, &MeshInfo::new("x", Space::Ras))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("[0, 1, 9]") && e.contains("4 vertices"), "{e}");
+        }
+        let mut bad = tetrahedron();
+        bad.normals.pop();
+        let e = encode(&bad, Format::Ply, &MeshInfo::new("x", Space::Ras)).unwrap_err();
+        assert!(e.to_string().contains("3 normals for 4 vertices"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.obj");
+        let e = write(&path, &bad, Format::Obj, &MeshInfo::new("x", Space::Ras)).unwrap_err();
+        assert!(format!("{e:#}").contains("bad.obj"), "{e:#}");
+        assert!(!path.exists());
     }
 }

@@ -1,16 +1,32 @@
-//! Wavefront OBJ: `v` positions, `vn` normals (when present) and `f v//vn` faces, one `o` object
-//! named after the class. OBJ has no per-vertex scalars, so the normal velocity is not written.
+//! Wavefront OBJ: a leading comment naming the class and the frame (`SPACE=LPS`, which 3D
+//! Slicer reads from the file's first comments), `v` positions, `vn` normals (when present) and
+//! `f v//vn` faces, one `o` object named after the class. OBJ has no per-vertex scalars, so the
+//! normal velocity is not written.
 
 use super::super::Mesh;
+use super::{one_line, MeshInfo};
 use std::fmt::Write;
 
-pub(super) fn encode(mesh: &Mesh, name: &str) -> Vec<u8> {
+/// `mesh`, already in `info.space`, as OBJ text.
+pub(super) fn encode(mesh: &Mesh, info: &MeshInfo) -> Vec<u8> {
     let mut s = String::with_capacity(mesh.positions.len() * 64 + mesh.triangles.len() * 32);
     // Writing to a String cannot fail.
     let _ = writeln!(
         s,
-        "# DynaSlice surface\no {}",
-        name.replace(char::is_whitespace, "_")
+        "# DynaSlice surface: {} {}",
+        one_line(info.name),
+        info.space.tag()
+    );
+    if let Some(label) = info.label {
+        let _ = writeln!(s, "# label {label}");
+    }
+    if let Some(t) = info.time {
+        let _ = writeln!(s, "# time {t}");
+    }
+    let _ = writeln!(
+        s,
+        "o {}",
+        one_line(info.name).replace(char::is_whitespace, "_")
     );
     for p in &mesh.positions {
         let _ = writeln!(s, "v {} {} {}", p[0], p[1], p[2]);
@@ -33,16 +49,27 @@ pub(super) fn encode(mesh: &Mesh, name: &str) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::super::tests::tetrahedron;
+    use super::super::Space;
     use super::*;
 
     #[test]
     fn writes_indexed_faces_with_normals() {
-        let text = String::from_utf8(encode(&tetrahedron(), "left ventricle")).unwrap();
+        let info = MeshInfo::new("left ventricle", Space::Lps);
+        let text = String::from_utf8(encode(&tetrahedron(), &info)).unwrap();
         let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "# DynaSlice surface: left ventricle SPACE=LPS");
         assert_eq!(lines[1], "o left_ventricle");
         assert_eq!(lines.iter().filter(|l| l.starts_with("v ")).count(), 4);
         assert_eq!(lines.iter().filter(|l| l.starts_with("vn ")).count(), 4);
         assert!(lines.contains(&"v 0 0 1"));
         assert_eq!(*lines.last().unwrap(), "f 2//2 3//3 4//4");
+    }
+
+    #[test]
+    fn a_name_with_line_breaks_stays_in_its_comment() {
+        let info = MeshInfo::new("a\nv 9 9 9", Space::Ras).with_time(0.5);
+        let text = String::from_utf8(encode(&tetrahedron(), &info)).unwrap();
+        assert!(text.starts_with("# DynaSlice surface: a v 9 9 9 SPACE=RAS\n# time 0.5\n"));
+        assert_eq!(text.lines().filter(|l| l.starts_with("v ")).count(), 4);
     }
 }

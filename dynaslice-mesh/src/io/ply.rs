@@ -1,8 +1,10 @@
 //! Binary little-endian PLY through `ply-rs-bw`: `vertex` with `x y z nx ny nz normal_velocity`
 //! (float; the attributes only when the mesh has them) and `face` with `vertex_indices`
-//! (uchar count, uint indices).
+//! (uchar count, uint indices). The header comments name the class and, on a line of its own
+//! as 3D Slicer writes it, the frame (`comment SPACE=LPS`).
 
 use super::super::Mesh;
+use super::{one_line, MeshInfo};
 use anyhow::Result;
 use ply_rs_bw::ply::{
     Addable, ElementDef, Encoding, Ply, PropertyAccess, PropertyDef, PropertyType, ScalarType,
@@ -56,13 +58,20 @@ impl PropertyAccess for Record {
     }
 }
 
-pub(super) fn encode(mesh: &Mesh, name: &str) -> Result<Vec<u8>> {
+/// `mesh`, already in `info.space`, as PLY.
+pub(super) fn encode(mesh: &Mesh, info: &MeshInfo) -> Result<Vec<u8>> {
     let attributes = !mesh.normals.is_empty();
     let mut ply = Ply::<Record>::new();
     ply.header.encoding = Encoding::BinaryLittleEndian;
-    ply.header
-        .comments
-        .push(format!("DynaSlice surface: {name}"));
+    let comments = &mut ply.header.comments;
+    comments.push(format!("DynaSlice surface: {}", one_line(info.name)));
+    comments.push(info.space.tag());
+    if let Some(label) = info.label {
+        comments.push(format!("label {label}"));
+    }
+    if let Some(t) = info.time {
+        comments.push(format!("time {t}"));
+    }
     let float = |n: &str| PropertyDef::new(n.to_string(), PropertyType::Scalar(ScalarType::Float));
     let mut vertex = ElementDef::new("vertex".to_string());
     let mut names = vec!["x", "y", "z"];
@@ -106,8 +115,13 @@ mod tests {
     #[test]
     fn round_trips_through_the_parser() {
         let mesh = tetrahedron();
-        let bytes = encode(&mesh, "lv").unwrap();
+        let info = MeshInfo::new("lv", super::super::Space::Ras).with_label(3);
+        let bytes = encode(&mesh, &info).unwrap();
         assert!(bytes.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
+        let header = String::from_utf8_lossy(&bytes[..200]);
+        assert!(
+            header.contains("comment DynaSlice surface: lv\ncomment SPACE=RAS\ncomment label 3\n")
+        );
         let ply = Parser::<DefaultElement>::new()
             .read_ply(&mut bytes.as_slice())
             .unwrap();

@@ -5,12 +5,14 @@
 //! - [`multiclass`]: Table 2's idea: independent per-class models, one shared multi-class model,
 //!   and the shared model without temporal control, scored on held-out slices.
 //! - [`mod@reference`]: static reconstructions of `.csl` cross-sections against reference meshes.
+//! - [`schedule`]: timed training, the planned schedule against a cut-off one, at equal wall time.
 //!
 //! Every run of one table trains for the same number of steps, calibrated once per input to
 //! take the requested wall time ([`Protocol::steps_for`]): equal compute, and a comparison a busy machine cannot tilt.
 
 pub mod multiclass;
 pub mod reference;
+pub mod schedule;
 pub mod synthetic;
 
 use anyhow::{anyhow, Result};

@@ -85,6 +85,16 @@ impl Scene {
         Ok(Scene { shape, seq, truth })
     }
 
+    /// The annotated cross-sections the models of this scene train on.
+    pub fn sequence(&self) -> &Sequence {
+        &self.seq
+    }
+
+    /// `model`'s scores against the exact shapes at every benchmark frame.
+    pub fn score(&self, model: &dynaslice_core::Model) -> Result<Scores> {
+        self.truth.score(model)
+    }
+
     /// Steps that take `p.minutes` for the full method on this scene (every variant costs the
     /// same per step).
     pub fn calibrate(&self, p: &Protocol) -> Result<u64> {

@@ -1,0 +1,213 @@
+//! Value parsers for the command-line options, so that every number is checked when the command
+//! line is parsed, before any file is read: a bad value ends the run at once (exit 2) with clap's
+//! `invalid value 'V' for '--option <X>'` followed by the allowed range. The limits are the
+//! `MAX_*` constants below; docs/robustness.md lists which option has which.
+//!
+//! Use: `#[arg(long, value_parser = count(1usize, MAX_THREADS))]`,
+//! `#[arg(long, value_parser = positive_f32(MAX_OMEGA_0))]`.
+
+use dynaslice_data::TimeSeries;
+use std::fmt::Display;
+use std::str::FromStr;
+
+/// Worker threads of any command: far above any machine this runs on, small enough that a typo
+/// (`--threads 100000`) cannot spawn a process-choking number of threads.
+pub const MAX_THREADS: usize = 1024;
+/// Optimisation steps of `train` (its loss history holds one row per step).
+pub const MAX_STEPS: u64 = 10_000_000;
+/// Samples per class (contour, plane) or per step (space-time) of `train` and `bench`.
+pub const MAX_SAMPLES_PER_STEP: usize = 1 << 20;
+/// Minutes of `--minutes` and `--checkpoint-minutes`: a year, and within `Duration`'s range.
+pub const MAX_MINUTES: f64 = 525_600.0;
+/// Lattice cells along the longest axis of a meshing grid (`mesh`, `eval`).
+pub const MAX_MESH_RESOLUTION: u32 = 2048;
+/// Cells per axis of the 3D IoU grid of `eval synthetic`.
+pub const MAX_IOU_RESOLUTION: usize = 1024;
+/// Area-uniform samples per surface for the Chamfer distance.
+pub const MAX_CHAMFER_SAMPLES: usize = 10_000_000;
+/// Times of an `A:B:N` series (`mesh --times`, `labels --times`, `eval volume --times`).
+pub const MAX_TIMES: usize = 10_000;
+/// Newton steps per mesh vertex.
+pub const MAX_NEWTON_STEPS: u32 = 100;
+/// Pixels along the longer side of a plane in `eval heldout`.
+pub const MAX_PIXELS: usize = 16_384;
+/// Timesteps of the synthetic benchmark.
+pub const MAX_SYNTH_TIMESTEPS: usize = 1000;
+/// Rotated or parallel planes per training timestep of the synthetic benchmark.
+pub const MAX_SYNTH_PLANES: usize = 1000;
+/// Grid points per axis contouring a synthetic plane.
+pub const MAX_PLANE_RESOLUTION: usize = 4096;
+/// Voxels per axis of the synthetic ground-truth volume.
+pub const MAX_VOLUME_RESOLUTION: usize = 1024;
+/// ω₀ of the first sine layer: two orders of magnitude above the documented useful range (10–30).
+pub const MAX_OMEGA_0: f32 = 10_000.0;
+/// c of ω_t^max = c·π/Δt (Eq. 4).
+pub const MAX_TEMPORAL_FACTOR: f32 = 1000.0;
+/// The initial learning rate (Adam; useful values are around 1e-4 to 1e-2).
+pub const MAX_LR: f32 = 10.0;
+/// Loss weights λ and α.
+pub const MAX_WEIGHT: f32 = 1e6;
+/// The safety factor of the mesher's distance bound.
+pub const MAX_SAFETY: f32 = 1000.0;
+/// Timed repetitions of `bench`.
+pub const MAX_REPEATS: usize = 1000;
+
+/// The error text of a value outside its range: clap prefixes it with the option and the value.
+fn outside(what: &str, range: &str) -> String {
+    format!("{what}; allowed: {range}")
+}
+
+/// A finite number in `lo..=hi` (`lo` excluded where `open`), parsed as f64.
+fn real(s: &str, lo: f64, open: bool, hi: f64) -> Result<f64, String> {
+    let range = match (open, lo, hi) {
+        (_, f64::NEG_INFINITY, f64::INFINITY) => "any finite number".to_string(),
+        (true, 0.0, f64::INFINITY) => "a finite number > 0".to_string(),
+        (false, 0.0, f64::INFINITY) => "a finite number ≥ 0".to_string(),
+        (true, _, _) => format!("a number > {lo} and ≤ {hi}"),
+        (false, _, _) => format!("a number from {lo} to {hi}"),
+    };
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| outside("not a number", &range))?;
+    if !v.is_finite() {
+        return Err(outside("not a finite number", &range));
+    }
+    if v < lo || (open && v == lo) || v > hi {
+        return Err(outside("out of range", &range));
+    }
+    Ok(v)
+}
+
+/// The same as an f32: a value that rounds to infinity or (for `open` at 0) to zero is refused.
+fn real_f32(s: &str, lo: f64, open: bool, hi: f64) -> Result<f32, String> {
+    let v = real(s, lo, open, hi)? as f32;
+    if !v.is_finite() || (open && v as f64 <= lo) {
+        return Err(format!(
+            "{s} is not representable as a 32-bit float in range"
+        ));
+    }
+    Ok(v)
+}
+
+/// Any finite f64.
+pub fn finite_f64(s: &str) -> Result<f64, String> {
+    real(s, f64::NEG_INFINITY, false, f64::INFINITY)
+}
+
+/// Any finite f32 (world coordinates and times of a model, which stores them as f32).
+pub fn finite_f32(s: &str) -> Result<f32, String> {
+    real_f32(s, f64::NEG_INFINITY, false, f64::INFINITY)
+}
+
+/// A finite f64 > 0 (voxel sizes).
+pub fn positive_f64(s: &str) -> Result<f64, String> {
+    real(s, 0.0, true, f64::INFINITY)
+}
+
+/// A finite f64 in (0, `hi`].
+pub fn positive_f64_to(hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync {
+    move |s| real(s, 0.0, true, hi)
+}
+
+/// A finite f64 in [0, `hi`].
+pub fn non_negative_f64_to(hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync {
+    move |s| real(s, 0.0, false, hi)
+}
+
+/// A finite f32 in (0, `hi`].
+pub fn positive_f32(hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
+    move |s| real_f32(s, 0.0, true, f64::from(hi))
+}
+
+/// A finite f32 in [0, `hi`].
+pub fn non_negative_f32(hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
+    move |s| real_f32(s, 0.0, false, f64::from(hi))
+}
+
+/// A finite f32 in [`lo`, `hi`].
+pub fn f32_in(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
+    move |s| real_f32(s, f64::from(lo), false, f64::from(hi))
+}
+
+/// A whole number in `lo..=hi` (counts, sizes, indices).
+pub fn count<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync
+where
+    T: FromStr + PartialOrd + Display + Copy + Send + Sync,
+{
+    move |s| {
+        let range = format!("a whole number from {lo} to {hi}");
+        let v: T = s
+            .trim()
+            .parse()
+            .map_err(|_| outside("not a whole number", &range))?;
+        if v < lo || v > hi {
+            return Err(outside("out of range", &range));
+        }
+        Ok(v)
+    }
+}
+
+/// An `A:B:N` time series ([`TimeSeries`]: finite ends, B > A) of at most `max` times.
+pub fn time_series(
+    max: usize,
+) -> impl Fn(&str) -> Result<TimeSeries, String> + Clone + Send + Sync {
+    move |s| {
+        let series: TimeSeries = s.parse()?;
+        // The count is the third field (the parse above checked the shape).
+        let n: usize = s
+            .rsplit(':')
+            .next()
+            .and_then(|n| n.trim().parse().ok())
+            .unwrap_or(usize::MAX);
+        if n > max {
+            return Err(outside(
+                &format!("{n} times"),
+                &format!("at most {max} (N of A:B:N)"),
+            ));
+        }
+        Ok(series)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reals_are_finite_and_in_range() {
+        assert_eq!(finite_f64("-2.5"), Ok(-2.5));
+        for bad in ["NaN", "nan", "inf", "-inf", "1e400", "x", ""] {
+            assert!(finite_f64(bad).is_err(), "{bad}");
+        }
+        assert!(finite_f32("1e39").unwrap_err().contains("32-bit"));
+        let p = positive_f32(10.0);
+        assert_eq!(p("10"), Ok(10.0));
+        for bad in ["0", "-1", "10.5", "1e-50", "NaN"] {
+            assert!(p(bad).is_err(), "{bad}");
+        }
+        let e = p("0").unwrap_err();
+        assert!(e.contains("> 0") && e.contains("10"), "{e}");
+        assert_eq!(non_negative_f32(1.0)("0"), Ok(0.0));
+        assert!(non_negative_f32(1.0)("-0.1").is_err());
+        assert!(positive_f64("0").is_err() && positive_f64("1e-300").is_ok());
+    }
+
+    #[test]
+    fn counts_are_whole_and_bounded() {
+        let c = count(1usize, 1024);
+        assert_eq!(c("1024"), Ok(1024));
+        for bad in ["0", "1025", "-1", "1.5", "4e9", "100000"] {
+            assert!(c(bad).is_err(), "{bad}");
+        }
+        assert!(c("0").unwrap_err().contains("from 1 to 1024"));
+    }
+
+    #[test]
+    fn time_series_count_is_bounded() {
+        let t = time_series(100);
+        assert!(t("0:1:100").is_ok());
+        assert!(t("0:1:101").unwrap_err().contains("at most 100"));
+        assert!(t("0:NaN:3").is_err());
+    }
+}

@@ -1,0 +1,311 @@
+//! Output paths, checked in one place before any work starts: the right extension for what is
+//! written, the parent folder exists, never a directory where a file goes (nor a file where a
+//! directory goes), never one of the run's inputs (by file identity, so `./a.json`, a symlink or
+//! a hard link to an input are caught too), never the same path twice in one run, and never an
+//! existing model, training input or label volume unless `--force`. Then [`write_via`] writes
+//! a library's output under a temporary name and renames it into place, so a failed run leaves
+//! neither a partial file nor a damaged old one.
+
+use anyhow::{bail, Context, Result};
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
+
+/// What a file output holds: its allowed extensions and whether it may replace a file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// A model (`.dsm`); replacing one needs `--force`.
+    Model,
+    /// Cross-sections for training (native JSON); replacing one needs `--force`.
+    TrainingInput,
+    /// A label volume (`.nii`, `.nii.gz`); replacing one needs `--force`.
+    LabelVolume,
+    /// A table (`.csv`).
+    Csv,
+    /// A picture or chart (`.png`).
+    Png,
+    /// A mesh (`.ply`, `.obj`, `.stl`, `.vtp`).
+    Mesh,
+}
+
+impl Kind {
+    fn extensions(self) -> &'static [&'static str] {
+        match self {
+            Kind::Model => &[".dsm"],
+            Kind::TrainingInput => &[".json"],
+            Kind::LabelVolume => &[".nii", ".nii.gz"],
+            Kind::Csv => &[".csv"],
+            Kind::Png => &[".png"],
+            Kind::Mesh => &[".ply", ".obj", ".stl", ".vtp"],
+        }
+    }
+
+    fn what(self) -> &'static str {
+        match self {
+            Kind::Model => "model",
+            Kind::TrainingInput => "training input",
+            Kind::LabelVolume => "label volume",
+            Kind::Csv => "CSV table",
+            Kind::Png => "PNG picture",
+            Kind::Mesh => "mesh",
+        }
+    }
+
+    /// Data a run may have taken hours to make: never replaced without `--force`.
+    fn precious(self) -> bool {
+        matches!(self, Kind::Model | Kind::TrainingInput | Kind::LabelVolume)
+    }
+}
+
+/// Extensions of files this tool reads or writes: a series directory named like one is
+/// almost certainly a mistaken `-o file.vtp`.
+const FILE_EXTENSIONS: [&str; 14] = [
+    "ply", "obj", "stl", "vtp", "pvd", "json", "csv", "png", "nii", "gz", "dsm", "csl", "txt",
+    "ckpt",
+];
+
+/// The outputs of one run, checked against its inputs and each other.
+#[derive(Debug)]
+pub struct Plan {
+    inputs: Vec<PathBuf>,
+    outputs: Vec<PathBuf>,
+    force: bool,
+}
+
+impl Plan {
+    /// A run reading `inputs`; `force`: existing models, training inputs and label volumes may
+    /// be replaced.
+    pub fn new<P: AsRef<Path>>(inputs: impl IntoIterator<Item = P>, force: bool) -> Plan {
+        Plan {
+            inputs: inputs
+                .into_iter()
+                .map(|p| p.as_ref().to_path_buf())
+                .collect(),
+            outputs: Vec::new(),
+            force,
+        }
+    }
+
+    /// Checks the file output `path` given by `option` (e.g. `-o`) holding `kind`.
+    pub fn file(&mut self, option: &str, path: &Path, kind: Kind) -> Result<()> {
+        file_name(option, path)?;
+        let name = path.to_string_lossy().to_ascii_lowercase();
+        let exts = kind.extensions();
+        if !exts
+            .iter()
+            .any(|e| name.ends_with(e) && name.len() > e.len())
+        {
+            bail!(
+                "{option} {}: a {} must be named *{}",
+                path.display(),
+                kind.what(),
+                exts.join(" or *")
+            );
+        }
+        self.check_file(option, path)?;
+        if kind.precious() && !self.force && path.exists() {
+            bail!(
+                "{option} {}: the file exists (a {}); add --force to replace it",
+                path.display(),
+                kind.what()
+            );
+        }
+        Ok(())
+    }
+
+    /// Checks a file written beside the main output (a loss log, a chart, a checkpoint): any
+    /// name, the same checks otherwise; an existing one is replaced.
+    pub fn beside(&mut self, path: &Path) -> Result<()> {
+        self.check_file("the output", path)
+    }
+
+    /// Checks the directory output `path` of `option`: not named like a file, not an existing
+    /// file, its parent exists. It is created by the writer where missing.
+    pub fn directory(&mut self, option: &str, path: &Path) -> Result<()> {
+        if let Some(ext) = path.extension().and_then(OsStr::to_str) {
+            if FILE_EXTENSIONS.contains(&ext.to_ascii_lowercase().as_str()) {
+                bail!(
+                    "{option} {}: this output is a directory, and the name looks like a \
+                     file (.{ext}); give a directory name",
+                    path.display()
+                );
+            }
+        }
+        if path.exists() && !path.is_dir() {
+            bail!("{option} {}: exists and is not a directory", path.display());
+        }
+        parent_exists(option, path)?;
+        self.not_an_input(option, path)?;
+        self.outputs.push(absolute(path));
+        Ok(())
+    }
+
+    fn check_file(&mut self, option: &str, path: &Path) -> Result<()> {
+        file_name(option, path)?;
+        if let Ok(meta) = std::fs::metadata(path) {
+            if meta.is_dir() {
+                bail!(
+                    "{option} {}: is a directory; give a file name",
+                    path.display()
+                );
+            }
+            if !meta.is_file() {
+                bail!("{option} {}: not a regular file", path.display());
+            }
+        }
+        parent_exists(option, path)?;
+        self.not_an_input(option, path)?;
+        let abs = absolute(path);
+        if self.outputs.contains(&abs) {
+            bail!(
+                "{option} {}: the run would write this file twice",
+                path.display()
+            );
+        }
+        self.outputs.push(abs);
+        Ok(())
+    }
+
+    fn not_an_input(&self, option: &str, path: &Path) -> Result<()> {
+        for input in &self.inputs {
+            // A missing output cannot be an existing input; errors mean "not the same".
+            let same = same_file::is_same_file(path, input).unwrap_or(false)
+                || absolute(path) == absolute(input);
+            if same {
+                bail!(
+                    "{option} {}: this is an input of the command ({}); writing it would \
+                     destroy it, choose another output",
+                    path.display(),
+                    input.display()
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+/// An error unless `path` names a file: not `dir/`, `..` or `/`.
+fn file_name(option: &str, path: &Path) -> Result<()> {
+    let text = path.as_os_str().to_string_lossy();
+    if path.file_name().is_none() || text.ends_with('/') || text.ends_with("/.") {
+        bail!("{option} {}: not a file name", path.display());
+    }
+    Ok(())
+}
+
+/// `path` made absolute against the current directory (lexically: `a/../b` stays as is, and
+/// file identity is left to `same_file`).
+fn absolute(path: &Path) -> PathBuf {
+    std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf())
+}
+
+fn parent_exists(option: &str, path: &Path) -> Result<()> {
+    let parent = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if !parent.is_dir() {
+        bail!(
+            "{option} {}: the folder {} does not exist",
+            path.display(),
+            parent.display()
+        );
+    }
+    Ok(())
+}
+
+/// `path` as an input: it exists and is a regular file (a FIFO would block the open, a device
+/// like /dev/zero would never end). `what` names it in the message (e.g. "model").
+pub fn regular_file(what: &str, path: &Path) -> Result<()> {
+    let meta = std::fs::metadata(path)
+        .with_context(|| format!("cannot read {what} {}", path.display()))?;
+    if !meta.is_file() {
+        bail!("cannot read {what} {}: not a regular file", path.display());
+    }
+    Ok(())
+}
+
+/// Writes `path` through `write`, a writer that takes a path: it writes a temporary file beside
+/// `path` with the same extension (writers pick the format by it), which is synced and renamed
+/// over `path` when `write` succeeds and deleted when it fails.
+pub fn write_via<T>(path: &Path, write: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .with_context(|| format!("{} is not a file path", path.display()))?
+        .to_string_lossy()
+        .into_owned();
+    let lower = name.to_ascii_lowercase();
+    let suffix = if lower.ends_with(".nii.gz") {
+        &name[name.len() - 7..]
+    } else {
+        name.rfind('.').map_or("", |i| &name[i..])
+    };
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(suffix)
+        .tempfile_in(dir)
+        .with_context(|| format!("cannot create a temporary file in {}", dir.display()))?;
+    let value = write(tmp.path())?;
+    std::fs::File::open(tmp.path())
+        .and_then(|f| f.sync_all())
+        .with_context(|| format!("cannot sync {}", tmp.path().display()))?;
+    tmp.persist(path)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(value)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn refuses_inputs_wrong_extensions_and_existing_models() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.json");
+        std::fs::write(&input, "x").unwrap();
+        let mut plan = Plan::new([&input], false);
+        let e = plan.file("-o", &input, Kind::TrainingInput).unwrap_err();
+        assert!(e.to_string().contains("input of the command"), "{e}");
+        let e = plan
+            .file("-o", &dir.path().join("x.txt"), Kind::Model)
+            .unwrap_err();
+        assert!(e.to_string().contains("*.dsm"), "{e}");
+        let e = plan
+            .file("-o", &dir.path().join("no/m.dsm"), Kind::Model)
+            .unwrap_err();
+        assert!(e.to_string().contains("does not exist"), "{e}");
+        let model = dir.path().join("m.dsm");
+        std::fs::write(&model, "x").unwrap();
+        let e = plan.file("-o", &model, Kind::Model).unwrap_err();
+        assert!(e.to_string().contains("--force"), "{e}");
+        assert!(Plan::new([&input], true)
+            .file("-o", &model, Kind::Model)
+            .is_ok());
+        let e = plan.directory("-o", &dir.path().join("a.vtp")).unwrap_err();
+        assert!(e.to_string().contains("looks like a file"), "{e}");
+        let csv = dir.path().join("v.csv");
+        plan.file("-o", &csv, Kind::Csv).unwrap();
+        assert!(plan.beside(&csv).unwrap_err().to_string().contains("twice"));
+    }
+
+    #[test]
+    fn write_via_leaves_nothing_on_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.nii.gz");
+        std::fs::write(&path, "old").unwrap();
+        let r: Result<()> = write_via(&path, |tmp| {
+            assert!(tmp.to_string_lossy().ends_with(".nii.gz"));
+            std::fs::write(tmp, "partial")?;
+            bail!("failed")
+        });
+        assert!(r.is_err());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        write_via(&path, |tmp| Ok(std::fs::write(tmp, "new")?)).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+}

@@ -1,0 +1,292 @@
+//! Reading the cross-sections of one or several inputs of any supported kind into one
+//! [`Sequence`]: the one entry point the command line and the bindings use.
+//!
+//! | kind | chosen by | one input gives |
+//! |------|-----------|-----------------|
+//! | native JSON | `.json` | the sequence it holds |
+//! | `.csl` | `.csl` | one timestep at time 0 |
+//! | manifest | `.seq`, `.cslseq` | one timestep per line ([`crate::manifest`]) |
+//! | NIfTI label map | `.nii`, `.nii.gz` | planes per [`PlaneMode`] at every selected frame |
+//! | NRRD label map, 3D Slicer segmentation | `.nrrd`, `.nhdr`, `.seg.nrrd` | as NIfTI, with the segments' names and colours |
+//! | DICOM RT Structure Set | `.dcm`, or any file starting with the DICOM preamble | one timestep at time 0 |
+//!
+//! Several inputs are views of one subject ([`read`]): their time grids must agree, and every
+//! plane of an image annotates every class of them all (see [`crate::combine`]).
+
+use std::path::{Path, PathBuf};
+
+use super::combine::{combine, same_time, Absence, Part};
+use super::drawn_slices::{self, PlaneMode, SparseAxes};
+use super::error::{DataError, ErrorKind, Result};
+use super::frame_range::FrameRange;
+use super::label_table::LabelTable;
+use super::nifti::LabelVolume;
+use super::reslice::{reslice, ResliceOptions};
+use super::rtstruct::{self, RoiExtent};
+use super::sequence::Sequence;
+use super::{csl, manifest, native, nifti, nrrd};
+
+/// How the inputs are read. [`Default`] is what the command line does without options.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct InputOptions {
+    /// Frames to keep (by index, of every input alike).
+    pub frames: FrameRange,
+    /// Names (and colours) for label values, over those the inputs carry.
+    pub table: LabelTable,
+    /// Label maps: how they become planes (see [`drawn_slices`]).
+    pub planes: PlaneMode,
+    /// Label maps read as sparsely drawn: the voxel axes drawn on.
+    pub sparse_axes: SparseAxes,
+    /// RT Structure Sets: where an ROI without a contour on a plane counts as absent.
+    pub roi_extent: RoiExtent,
+    /// Label maps: the reslicing protocol and the label values to use (its `frames` is ignored:
+    /// [`InputOptions::frames`] applies).
+    pub reslice: ResliceOptions,
+}
+
+/// The kinds of input, by file name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputKind {
+    /// DynaSlice's native JSON sequence.
+    Native,
+    /// A `.csl` cross-section file.
+    Csl,
+    /// A `.seq` / `.cslseq` manifest of single-timestep inputs.
+    Manifest,
+    /// A NIfTI label map.
+    Nifti,
+    /// An NRRD label map or 3D Slicer segmentation.
+    Nrrd,
+    /// A DICOM RT Structure Set.
+    RtStruct,
+}
+
+impl InputKind {
+    /// The kind `path` names, or an error listing the kinds there are.
+    pub fn of(path: &Path) -> Result<InputKind> {
+        let name = path.to_string_lossy().to_ascii_lowercase();
+        let kind = if name.ends_with(".nii") || name.ends_with(".nii.gz") {
+            InputKind::Nifti
+        } else if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
+            InputKind::Nrrd
+        } else if name.ends_with(".dcm") || has_dicom_preamble(path) {
+            InputKind::RtStruct
+        } else if name.ends_with(".json") {
+            InputKind::Native
+        } else if name.ends_with(".csl") {
+            InputKind::Csl
+        } else if name.ends_with(".seq") || name.ends_with(".cslseq") {
+            InputKind::Manifest
+        } else {
+            return Err(DataError::new(ErrorKind::Option(
+                "unsupported input type (expected .json, .csl, .seq, .cslseq, .nii, .nii.gz, \
+                 .nrrd, .nhdr, .seg.nrrd, or a DICOM RT Structure Set)"
+                    .into(),
+            ))
+            .in_file(path));
+        };
+        Ok(kind)
+    }
+}
+
+/// Whether the file starts with DICOM's 128-byte preamble and `DICM` (DICOM files often have no
+/// extension).
+fn has_dicom_preamble(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 132];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok_and(|()| &head[128..] == b"DICM")
+}
+
+/// Reads `paths` into one sequence, keeping the selected frames.
+///
+/// With several inputs, each is read alone, their frame times must agree (frame i of every
+/// input at one time), and every plane of an image annotates every class of the union (absent
+/// where the image does not show it); RT Structure Sets keep their own annotations.
+pub fn read(paths: &[PathBuf], options: &InputOptions) -> Result<Sequence> {
+    let parts = paths
+        .iter()
+        .map(|p| read_part(p, options))
+        .collect::<Result<Vec<Part>>>()?;
+    if parts.is_empty() {
+        return Err(ErrorKind::Empty("no input".into()).into());
+    }
+    check_time_grids(&parts)?;
+    if parts.len() == 1 {
+        return Ok(parts.into_iter().next().expect("one part").sequence);
+    }
+    combine(parts)
+}
+
+/// Reads one input, frames selected, as a part to combine.
+fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
+    let at = |e: DataError| e.in_file(path);
+    let (sequence, absence) = match InputKind::of(path)? {
+        InputKind::Nifti => {
+            let volume = nifti::read_volume(path)?;
+            return Ok(Part {
+                path: path.to_path_buf(),
+                sequence: planes_of(&volume, &options.table, options).map_err(at)?,
+                absence: Absence::Union,
+            });
+        }
+        InputKind::Nrrd => {
+            let (volume, own) = nrrd::read_volume(path)?;
+            let table = own.overlaid(&options.table);
+            return Ok(Part {
+                path: path.to_path_buf(),
+                sequence: planes_of(&volume, &table, options).map_err(at)?,
+                absence: Absence::Union,
+            });
+        }
+        InputKind::RtStruct => (rtstruct::read(path, options.roi_extent)?, Absence::AsRead),
+        InputKind::Native => (native::read(path)?, Absence::AsRead),
+        InputKind::Csl => (csl::read(path, &options.table)?, Absence::Union),
+        InputKind::Manifest => (read_manifest(path, options)?, Absence::AsRead),
+    };
+    Ok(Part {
+        path: path.to_path_buf(),
+        sequence: select_frames(sequence, options.frames).map_err(at)?,
+        absence,
+    })
+}
+
+/// The planes of a label map, per [`InputOptions::planes`] (`table`: the file's own names and
+/// colours under the user's).
+fn planes_of(volume: &LabelVolume, table: &LabelTable, options: &InputOptions) -> Result<Sequence> {
+    let labels = options.reslice.labels.as_deref();
+    match drawn_slices::resolve(options.planes, volume) {
+        PlaneMode::Slices => drawn_slices::slices(volume, options.frames, labels, table),
+        PlaneMode::Sparse => drawn_slices::sparse_with_axes(
+            volume,
+            options.frames,
+            labels,
+            table,
+            options.sparse_axes,
+        ),
+        PlaneMode::Reslice | PlaneMode::Auto => {
+            let reslice_options = ResliceOptions {
+                frames: options.frames,
+                ..options.reslice.clone()
+            };
+            reslice(volume, &reslice_options, table)
+        }
+    }
+}
+
+/// Reads a manifest: every entry a single timestep, placed at its time.
+fn read_manifest(path: &Path, options: &InputOptions) -> Result<Sequence> {
+    let entry_options = InputOptions {
+        frames: FrameRange::ALL,
+        ..options.clone()
+    };
+    let mut parts = Vec::new();
+    for entry in manifest::read(path)? {
+        match InputKind::of(&entry.path) {
+            Ok(InputKind::Manifest) => {
+                return Err(manifest_error(
+                    path,
+                    entry.line,
+                    "a manifest cannot list a manifest",
+                ))
+            }
+            Ok(_) => {}
+            Err(e) => {
+                return Err(manifest_error(
+                    path,
+                    entry.line,
+                    &format!("{}: {}", entry.path.display(), e.kind),
+                ))
+            }
+        }
+        let mut part = read_part(&entry.path, &entry_options)?;
+        let count = part.sequence.frames().len();
+        if count != 1 {
+            return Err(manifest_error(
+                path,
+                entry.line,
+                &format!(
+                    "{} holds {count} timesteps; a manifest lists single-timestep inputs",
+                    entry.path.display()
+                ),
+            ));
+        }
+        let (classes, mut frames) = part.sequence.into_parts();
+        frames[0].time = entry.time;
+        part.sequence = Sequence::new(classes, frames).map_err(|e| e.in_file(&entry.path))?;
+        parts.push(part);
+    }
+    // Whole-sequence errors (a class never contoured) name the manifest.
+    combine(parts).map_err(|e| e.in_file(path))
+}
+
+fn manifest_error(path: &Path, line: usize, what: &str) -> DataError {
+    DataError::new(ErrorKind::Combine(what.into()))
+        .in_file(path)
+        .at_line(line)
+}
+
+/// Refuses inputs whose frame times differ (count or value), naming both.
+fn check_time_grids(parts: &[Part]) -> Result<()> {
+    let times = |p: &Part| -> Vec<f64> { p.sequence.frames().iter().map(|f| f.time).collect() };
+    let Some(first) = parts.first() else {
+        return Ok(());
+    };
+    let reference = times(first);
+    for part in &parts[1..] {
+        let own = times(part);
+        let agree = own.len() == reference.len()
+            && own.iter().zip(&reference).all(|(&a, &b)| same_time(a, b));
+        if !agree {
+            return Err(DataError::new(ErrorKind::Combine(format!(
+                "its time grid ({}) differs from that of {} ({}); several inputs must be views \
+                 at the same times (frame i of each at i × its frame interval)",
+                describe_grid(&own),
+                first.path.display(),
+                describe_grid(&reference)
+            )))
+            .in_file(&part.path));
+        }
+    }
+    Ok(())
+}
+
+fn describe_grid(times: &[f64]) -> String {
+    // Frame intervals come from f32 headers: 0.04 is stored as 0.0399999991.
+    let short = |t: f64| (t * 1e6).round() / 1e6;
+    match times {
+        [] => "no frame".into(),
+        [t] => format!("1 frame at {}", short(*t)),
+        [a, b, ..] => format!(
+            "{} frames, {} to {} every {}",
+            times.len(),
+            short(*a),
+            short(times[times.len() - 1]),
+            short(b - a)
+        ),
+    }
+}
+
+/// The sequence restricted to `range`'s frames (an error if none is left).
+pub fn select_frames(seq: Sequence, range: FrameRange) -> Result<Sequence> {
+    if range == FrameRange::ALL {
+        return Ok(seq);
+    }
+    let count = seq.frames().len();
+    let keep = range.indices(count);
+    if keep.is_empty() {
+        return Err(ErrorKind::Option(format!(
+            "frames {range} select no frame of the {count} in the input"
+        ))
+        .into());
+    }
+    let (classes, frames) = seq.into_parts();
+    let frames = frames
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| keep.contains(i))
+        .map(|(_, f)| f)
+        .collect();
+    Sequence::new(classes, frames)
+}

@@ -1,0 +1,149 @@
+"""Training from Python, meshing and label volumes."""
+
+import _thread
+import threading
+
+import numpy as np
+import pytest
+
+import dynaslice
+from conftest import points_in, write_sphere_sections
+
+SMALL = dict(widths=[32, 32], contour_samples=256, plane_samples=256, space_samples=256)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    d = tmp_path_factory.mktemp("train")
+    sections = write_sphere_sections(d / "spheres.json")
+    seen = []
+    model = dynaslice.train(sections, d / "spheres.dsm", steps=1500, seed=1, threads=2,
+                            progress=seen.append, **SMALL)
+    return model, d, seen
+
+
+def test_training_writes_a_model_that_learnt_the_spheres(trained):
+    model, d, seen = trained
+    assert (d / "spheres.dsm").exists() and (d / "spheres.dsm.ckpt").exists()
+    assert dynaslice.Model.load(d / "spheres.dsm").to_bytes() == model.to_bytes()
+    assert [c[:2] for c in model.classes] == [("ball", 3), ("moon", 7)]
+    assert model.time_range == pytest.approx((0.0, 1.0))
+    assert "steps = 1500" in model.metadata
+    # Progress: increasing steps, the last one reported, loss going down.
+    steps = [p["step"] for p in seen]
+    assert steps == sorted(steps) and steps[-1] == 1500 and seen[-1]["steps"] == 1500
+    assert seen[-1]["loss"] < seen[0]["loss"]
+    probe = np.array([[0.0, 0.0, 0.0], [0.7, 0.0, 0.0], [0.0, -0.8, 0.0]])
+    assert list(model.labels(probe, 0.5)) == [3, 7, 0]
+
+
+def test_mesh_of_the_trained_model(trained):
+    model = trained[0]
+    ball = model.mesh(0.5, cls="ball", resolution=48)
+    assert isinstance(ball, dynaslice.Mesh) and ball.name == "ball" and ball.label == 3
+    v, faces, vn = ball
+    assert v.dtype == np.float32 and v.ndim == 2 and v.shape[1] == 3 and len(v) > 100
+    assert faces.dtype == np.int64 and faces.shape[1] == 3 and faces.max() < len(v)
+    assert vn.shape == (len(v),) and ball.normals.shape == v.shape
+    # Sparse planes leave regions no data reaches, where the mesh may hold spurious parts:
+    # look at the part around the ball. On the surface there (one Newton step), at the radius
+    # 0.35 + 0.1·t, moving outwards at dr/dt = 0.1.
+    radius = np.linalg.norm(v, axis=1)
+    near = radius < 0.6
+    assert near.sum() > 1000
+    assert np.abs(model.sdf(v[near], 0.5)[:, 0]).max() < 1e-3
+    assert abs(np.median(radius[near]) - 0.40) < 0.02
+    assert abs(np.median(vn[near]) - 0.1) < 0.03
+    both = model.mesh(0.5, resolution=32)
+    assert [m.name for m in both] == ["ball", "moon"]
+    assert [m.name for m in model.mesh(0.5, cls=[2, "ball"], resolution=32)] == ["moon", "ball"]
+    with pytest.raises(ValueError, match='no class "heart"; the model\'s classes are 1 "ball", 2 "moon"'):
+        model.mesh(0.5, cls="heart")
+    with pytest.raises(ValueError, match="outside the model's time range"):
+        model.mesh(3.0)
+
+
+def test_mesh_helpers(trained):
+    ball = trained[0].mesh(0.5, cls=1, resolution=32)
+    trimesh = pytest.importorskip("trimesh", reason="trimesh not installed: to_trimesh untested")
+    tm = ball.to_trimesh()
+    assert isinstance(tm, trimesh.Trimesh) and tm.is_watertight
+    assert len(tm.vertices) == len(ball.vertices)
+
+
+def test_mesh_to_pyvista(trained):
+    ball = trained[0].mesh(0.5, cls=1, resolution=32)
+    pytest.importorskip("pyvista", reason="pyvista not installed: to_pyvista untested")
+    poly = ball.to_pyvista()
+    assert poly.n_points == len(ball.vertices) and poly.n_cells == len(ball.faces)
+    np.testing.assert_array_equal(poly.point_data["normal_velocity"], ball.normal_velocity)
+
+
+def test_label_volume_like_a_nibabel_image_and_a_file(trained, tmp_path):
+    nib = pytest.importorskip("nibabel", reason="nibabel not installed: label volumes untested")
+    model = trained[0]
+    affine = np.array([[0.05, 0, 0, -0.9], [0, 0.05, 0, -0.9], [0, 0, 0.1, -0.5], [0, 0, 0, 1.0]])
+    data = np.zeros((37, 36, 11, 3), dtype=np.int16)
+    image = nib.Nifti1Image(data, affine)
+    image.header.set_xyzt_units("mm", "sec")
+    image.header["pixdim"][4] = 0.5
+    ref = tmp_path / "ref.nii.gz"
+    nib.save(image, ref)
+    vol = model.label_volume(like=image)
+    assert vol.shape == (37, 36, 11, 3) and vol.dtype == np.int32
+    # Each voxel's label is the model's at its centre and its frame's time (f · 0.5).
+    ijk = np.stack(np.meshgrid(*[np.arange(s) for s in (37, 36, 11)], indexing="ij"), -1).reshape(-1, 3)
+    world = ijk @ affine[:3, :3].T + affine[:3, 3]
+    for f in range(3):
+        expected = model.labels(world, 0.5 * f).reshape(37, 36, 11)
+        np.testing.assert_array_equal(vol[..., f], expected)
+    assert set(np.unique(vol)) == {0, 3, 7}
+    out = tmp_path / "labels.nii.gz"
+    from_file = model.label_volume(like=ref, output=out)
+    np.testing.assert_array_equal(from_file, vol)
+    np.testing.assert_array_equal(np.asanyarray(nib.load(out).dataobj), vol)
+    single = model.label_volume(like=ref, times=0.25)
+    assert single.shape == (37, 36, 11)
+    np.testing.assert_array_equal(single, model.labels(world, 0.25).reshape(37, 36, 11))
+    with pytest.raises(dynaslice.DynasliceError, match="missing.nii"):
+        model.label_volume(like=tmp_path / "missing.nii")
+
+
+def test_train_errors_and_interrupts(tmp_path):
+    sections = write_sphere_sections(tmp_path / "s.json", frames=2, planes=3)
+    with pytest.raises(dynaslice.DynasliceError, match="nope.json"):
+        dynaslice.train(tmp_path / "nope.json", tmp_path / "m.dsm", steps=1, progress=False)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'omega'"):
+        dynaslice.train(sections, tmp_path / "m.dsm", steps=1, omega=3.0)
+
+    # A callback's exception stops training at a checkpoint and propagates.
+    class Stop(Exception):
+        pass
+
+    def stop_at_once(p):
+        raise Stop("enough")
+
+    out = tmp_path / "m.dsm"
+    with pytest.raises(Stop, match="enough"):
+        dynaslice.train(sections, out, steps=100_000, threads=1, progress=stop_at_once, **SMALL)
+    assert (tmp_path / "m.dsm.ckpt").exists() and not out.exists()
+
+    # Ctrl-C (SIGINT's flag, as the terminal sets it) stops, saves and raises.
+    (tmp_path / "m.dsm.ckpt").unlink()
+    timer = threading.Timer(1.0, _thread.interrupt_main)
+    timer.start()
+    with pytest.raises(KeyboardInterrupt, match="checkpoint saved to .*m.dsm.ckpt"):
+        dynaslice.train(sections, out, steps=100_000, threads=1, progress=False, **SMALL)
+    timer.join()
+    assert (tmp_path / "m.dsm.ckpt").exists() and not out.exists()
+    # ... and resume=True continues from there.
+    first = []
+
+    def record_and_stop(p):
+        first.append(p["step"])
+        raise Stop("seen")
+
+    with pytest.raises(Stop):
+        dynaslice.train(sections, out, steps=100_000, threads=1, progress=record_and_stop,
+                        resume=True, **SMALL)
+    assert first[0] > 1, "resumed at step %d" % first[0]
