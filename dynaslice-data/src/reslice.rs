@@ -338,9 +338,9 @@ fn slice_plane(v: &LabelVolume, f: usize, g: &GridPlane, labels: &[i32]) -> Plan
             let s: [(i32, f64); 8] = std::array::from_fn(|c| {
                 let o = [c & 1, c >> 1 & 1, c >> 2 & 1];
                 let label = v.label(
-                    base[0] as isize + o[0] as isize,
-                    base[1] as isize + o[1] as isize,
-                    base[2] as isize + o[2] as isize,
+                    (base[0] as isize).saturating_add(o[0] as isize),
+                    (base[1] as isize).saturating_add(o[1] as isize),
+                    (base[2] as isize).saturating_add(o[2] as isize),
                     f,
                 );
                 let weight: f64 = (0..3)

@@ -222,6 +222,47 @@ pub fn read(path: &Path, extent: RoiExtent) -> Result<Sequence> {
 /// Walks the element headers without reading values and refuses any declared length beyond the
 /// file's size: dicom-rs allocates (and zero-fills) a value's declared length before reading it,
 /// so a small corrupted file declaring a 4 GiB element would otherwise take gigabytes.
+/// Walks the file meta group's element headers (always explicit VR little endian), refusing a
+/// declared length larger than the whole file: dicom-object allocates a declared length before
+/// reading it, so a 1 kB file declaring 3 GB would otherwise take 3 GB.
+fn check_meta_lengths(file: &mut BufReader<File>, size: u64) -> Result<()> {
+    // VRs with a u16 length (PS3.5 Table 7.1-2); every other VR (OB, OW, SQ, UN, …, and an
+    // unknown one) has a reserved u16 and a u32 length.
+    const SHORT: [&[u8; 2]; 21] = [
+        b"AE", b"AS", b"AT", b"CS", b"DA", b"DS", b"DT", b"FL", b"FD", b"IS", b"LO", b"LT", b"PN",
+        b"SH", b"SL", b"SS", b"ST", b"TM", b"UI", b"UL", b"US",
+    ];
+    let io = |e: std::io::Error| DataError::new(e.into());
+    loop {
+        let mut header = [0u8; 8];
+        match file.read_exact(&mut header) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => return Ok(()),
+            Err(e) => return Err(io(e)),
+        }
+        let group = u16::from_le_bytes([header[0], header[1]]);
+        if group != 0x0002 {
+            return Ok(());
+        }
+        let vr = [header[4], header[5]];
+        let len = if SHORT.iter().any(|v| **v == vr) {
+            u64::from(u16::from_le_bytes([header[6], header[7]]))
+        } else {
+            let mut long = [0u8; 4];
+            file.read_exact(&mut long).map_err(io)?;
+            u64::from(u32::from_le_bytes(long))
+        };
+        if len > size {
+            let element = u16::from_le_bytes([header[2], header[3]]);
+            return Err(dicom(format!(
+                "file meta element (0002,{element:04X}) declares {len} bytes, more than the whole \
+                 file ({size} bytes)"
+            )));
+        }
+        file.seek_relative(len as i64).map_err(io)?;
+    }
+}
+
 fn check_lengths(path: &Path, size: u64) -> Result<()> {
     let unreadable = |what: String| dicom(format!("not a readable DICOM file: {what}"));
     let mut file = BufReader::new(File::open(path).map_err(|e| DataError::new(e.into()))?);
@@ -233,6 +274,9 @@ fn check_lengths(path: &Path, size: u64) -> Result<()> {
         (b"DICM", _) => 0,
         _ => return Ok(()),
     };
+    file.seek(SeekFrom::Start(start + 4))
+        .map_err(|e| DataError::new(e.into()))?;
+    check_meta_lengths(&mut file, size)?;
     file.seek(SeekFrom::Start(start))
         .map_err(|e| DataError::new(e.into()))?;
     let meta = FileMetaTable::from_reader(&mut file)

@@ -1,4 +1,11 @@
-//! What both fuzz targets check on every input (see docs/model-format.md, "Robustness").
+//! The checks of every fuzz target (see docs/robustness.md, "Fuzzing").
+//!
+//! The model-file targets (`from_bytes`, `from_bytes_crc`) use [`check`] and [`fix_crc`] below;
+//! the reader targets use [`readers`], which feeds the input to one reader (through a scratch
+//! file where the reader takes a path) and checks what an accepted input must satisfy.
+//! [`fixtures`] builds the valid inputs the seeds and the manifest sandbox are made of.
+//!
+//! What the model-file targets check on every input (see docs/model-format.md, "Robustness"):
 //!
 //! 1. `Model::from_bytes` returns, without panicking or touching memory outside the input
 //!    (AddressSanitizer, which `cargo fuzz` enables, turns any stray read into a crash).
@@ -8,6 +15,38 @@
 //! 3. Every query of an accepted model succeeds: single points (f, ∇f, ∂f/∂t, label) and every
 //!    batch form, including empty batches and batches longer than one block. Values are not
 //!    checked: a hostile but finite model may overflow to ±∞ and NaN, which is allowed.
+
+#![warn(missing_docs)]
+
+pub mod fixtures;
+pub mod readers;
+
+/// Every fuzz target, in the order `scripts/ci-fuzz.sh` runs them.
+pub const TARGETS: [&str; 10] = [
+    "from_bytes_crc",
+    "from_bytes",
+    "nifti",
+    "nrrd",
+    "rtstruct",
+    "csl",
+    "native_json",
+    "manifest",
+    "label_table",
+    "checkpoint",
+];
+
+/// Each target's initialisation: when `DYNASLICE_FUZZ_SEEDS` names a folder, writes the
+/// target's seeds there ([`fixtures::write_seeds`]) before libFuzzer reads its corpus, so a
+/// run needs no separate seed build (`scripts/ci-fuzz.sh` passes the corpus folder). A seed
+/// the reader refuses stops the run.
+pub fn init(target: &str) {
+    if let Some(dir) = std::env::var_os("DYNASLICE_FUZZ_SEEDS") {
+        match fixtures::write_seeds(target, std::path::Path::new(&dir)) {
+            Ok(n) => eprintln!("{target}: {n} seeds written to {}", dir.to_string_lossy()),
+            Err(e) => panic!("{target}: cannot write the seeds: {e}"),
+        }
+    }
+}
 
 use dynaslice_core::format::ModelWriter;
 use dynaslice_core::{crc32, Model, ModelBytes, Scratch, UNDEFINED_LABEL};
