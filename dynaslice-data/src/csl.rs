@@ -1,5 +1,5 @@
 //! Reader for `.csl` planar-contour files (OReX and earlier cross-section reconstruction work)
-//! and for `.csl` sequence manifests.
+//! (one timestep; a `.seq` manifest makes a sequence of them, see `crate::manifest`).
 //!
 //! # Grammar (as the upstream parser reads it)
 //! Line 1 `CSLC`; line 2 `<n_planes> <n_labels>`; blank lines ignored. Per plane a header
@@ -45,17 +45,12 @@
 //! projection of the file's vertex bounding box grown by 5 % of its diagonal on each side.
 //!
 //! # Sequences
-//! One `.csl` file is one timestep. A manifest lists a sequence: one `<time> <path>` per line,
-//! paths relative to the manifest, `#` comments and blank lines ignored; times increase strictly.
-//! ```text
-//! # heart, 3 phases
-//! 0.0  phase0.csl
-//! 0.5  phase1.csl
-//! 1.0  phase2.csl
-//! ```
+//! One `.csl` file is one timestep at time 0. A `.seq` manifest (`.cslseq` is its older name)
+//! lists a sequence of them with their times: see [`crate::manifest`]; classes are matched by
+//! name across files, and every plane of a `.csl` file annotates every class of the sequence.
 
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::error::{DataError, ErrorKind, Result};
 use super::label_table::LabelTable;
@@ -682,81 +677,22 @@ fn read_raw(path: &Path) -> Result<RawFile> {
     parse_file(&text).map_err(|e| e.in_file(path))
 }
 
-/// Builds a sequence from parsed files and their times; errors carry file and timestep.
-fn build(files: Vec<(PathBuf, f64, RawFile)>, names: &LabelTable) -> Result<Sequence> {
-    let labels: Vec<i32> = files
-        .iter()
-        .flat_map(|(_, _, f)| solid_labels(f))
-        .collect::<BTreeSet<_>>()
-        .into_iter()
-        .collect();
+/// Builds the one-timestep sequence (at time 0) of a parsed file; errors name the file.
+fn build(path: &Path, file: RawFile, names: &LabelTable) -> Result<Sequence> {
+    let labels: Vec<i32> = solid_labels(&file).into_iter().collect();
     let classes = labels.iter().map(|&label| names.class(label)).collect();
-    let mut frames = Vec::with_capacity(files.len());
-    for (i, (path, time, file)) in files.iter().enumerate() {
-        frames.push(
-            to_frame(path, file, *time, &labels)
-                .map_err(|e| e.at_frame(i, Some(*time)).in_file(path))?,
-        );
-    }
-    let paths: Vec<&PathBuf> = files.iter().map(|(p, _, _)| p).collect();
-    Sequence::new(classes, frames).map_err(|e| match e.location.frame {
-        Some((i, _)) if i < paths.len() => {
-            let p = paths[i].clone();
-            e.in_file(&p)
-        }
-        // Errors of the whole sequence (no class at all, a class never contoured) have no
-        // timestep; with a single file they still belong to it, so name it (`read_sequence`
-        // names the manifest otherwise).
-        _ if paths.len() == 1 => {
-            let p = paths[0].clone();
-            e.in_file(&p)
-        }
-        _ => e,
-    })
+    let frame = to_frame(path, &file, 0.0, &labels).map_err(|e| e.in_file(path))?;
+    Sequence::new(classes, vec![frame]).map_err(|e| e.in_file(path))
 }
 
 /// Parses one `.csl` document held in memory as a single timestep at time 0 (`name` is used in
 /// error messages).
 pub fn parse(text: &str, name: &Path, names: &LabelTable) -> Result<Sequence> {
     let file = parse_file(text).map_err(|e| e.in_file(name))?;
-    build(vec![(name.to_path_buf(), 0.0, file)], names)
+    build(name, file, names)
 }
 
 /// Reads one `.csl` file as a static sequence (one timestep at time 0).
 pub fn read(path: &Path, names: &LabelTable) -> Result<Sequence> {
-    build(vec![(path.to_path_buf(), 0.0, read_raw(path)?)], names)
-}
-
-/// Reads a sequence manifest (see the [module docs](self)) and the `.csl` files it lists.
-pub fn read_sequence(manifest: &Path, names: &LabelTable) -> Result<Sequence> {
-    let text = std::fs::read_to_string(manifest)
-        .map_err(|e| DataError::new(e.into()).in_file(manifest))?;
-    let dir = manifest.parent().unwrap_or(Path::new("."));
-    let mut files = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let at = |what: String| syntax(i + 1, what).in_file(manifest);
-        let (time, path) = line
-            .split_once(char::is_whitespace)
-            .ok_or_else(|| at(format!("expected `<time> <path>`, found `{line}`")))?;
-        let time: f64 = time
-            .parse()
-            .map_err(|_| at(format!("time `{time}` is not a number")))?;
-        if !time.is_finite() {
-            return Err(at(format!("time `{time}` is not finite")));
-        }
-        let path = dir.join(path.trim());
-        let raw = read_raw(&path)?;
-        files.push((path, time, raw));
-    }
-    if files.is_empty() {
-        return Err(
-            DataError::new(ErrorKind::Empty("the manifest lists no file".into())).in_file(manifest),
-        );
-    }
-    // Errors that name no file of their own (of the whole sequence) name the manifest.
-    build(files, names).map_err(|e| e.in_file(manifest))
+    build(path, read_raw(path)?, names)
 }

@@ -5,7 +5,9 @@
 //! | source | entry point |
 //! | --- | --- |
 //! | native JSON (`docs/data-format.md`) | [`native::read`], [`native::write`] |
-//! | `.csl` file or manifest | [`csl::read`], [`csl::read_sequence`] |
+//! | any input, one or several, by file name | [`input::read`] |
+//! | `.csl` file | [`csl::read`] |
+//! | `.seq` manifest | [`manifest::read`], read through [`input::read`] |
 //! | NIfTI label volume, resliced | [`nifti::read`] with [`reslice::ResliceOptions`] |
 //! | DICOM RT Structure Set (RTSTRUCT) | [`rtstruct::read`] |
 //! | the synthetic benchmark | [`synth::slice_sequence`], [`synth::write_benchmark`] |
