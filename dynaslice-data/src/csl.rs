@@ -577,17 +577,12 @@ fn to_plane(
         u,
         v,
         roi: Rect {
-            min: [f64::INFINITY; 2],
-            max: [f64::NEG_INFINITY; 2],
+            min: [0.0; 2],
+            max: [0.0; 2],
         },
         annotations: Vec::new(),
     };
-    for corner in 0..8 {
-        let x = std::array::from_fn(|k| if corner >> k & 1 == 1 { ghi[k] } else { glo[k] });
-        let q = plane.to_plane(x);
-        plane.roi.min = std::array::from_fn(|k| plane.roi.min[k].min(q[k]));
-        plane.roi.max = std::array::from_fn(|k| plane.roi.max[k].max(q[k]));
-    }
+    plane.roi = plane.box_roi(glo, ghi);
     let classes = component_classes(rp, solids)?;
     let polys: Vec<Polygon> = rp
         .components

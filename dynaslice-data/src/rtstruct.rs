@@ -755,17 +755,12 @@ fn build(rois: Vec<Roi>, extent: RoiExtent, path: &Path) -> Result<Sequence> {
             u,
             v,
             roi: Rect {
-                min: [f64::INFINITY; 2],
-                max: [f64::NEG_INFINITY; 2],
+                min: [0.0; 2],
+                max: [0.0; 2],
             },
             annotations: Vec::new(),
         };
-        for corner in 0..8 {
-            let x = std::array::from_fn(|k| if corner >> k & 1 == 1 { ghi[k] } else { glo[k] });
-            let q = plane.to_plane(x);
-            plane.roi.min = std::array::from_fn(|k| plane.roi.min[k].min(q[k]));
-            plane.roi.max = std::array::from_fn(|k| plane.roi.max[k].max(q[k]));
-        }
+        plane.roi = plane.box_roi(glo, ghi);
         let mut plane_items = Vec::new();
         for (r, roi) in rois.iter().enumerate() {
             if !annotated(r, draft) {

@@ -112,6 +112,22 @@ impl Plane {
         cross(self.u, self.v)
     }
 
+    /// The rectangle (plane coordinates) of the projection of the world box `lo`..`hi` onto the
+    /// plane: a region of interest that covers everything the box holds.
+    pub fn box_roi(&self, lo: [f64; 3], hi: [f64; 3]) -> Rect {
+        let mut roi = Rect {
+            min: [f64::INFINITY; 2],
+            max: [f64::NEG_INFINITY; 2],
+        };
+        for corner in 0..8 {
+            let x = std::array::from_fn(|k| if corner >> k & 1 == 1 { hi[k] } else { lo[k] });
+            let q = self.to_plane(x);
+            roi.min = std::array::from_fn(|k| roi.min[k].min(q[k]));
+            roi.max = std::array::from_fn(|k| roi.max[k].max(q[k]));
+        }
+        roi
+    }
+
     /// The annotation of class `class`, if the plane annotates it.
     pub fn annotation(&self, class: usize) -> Option<&Annotation> {
         self.annotations.iter().find(|a| a.class == class)
