@@ -41,7 +41,8 @@ pub struct Args {
     #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
-    /// Output .nii or .nii.gz.
+    /// Output .nii or .nii.gz (one file, a frame per time), or .seg.nrrd (a 3D Slicer
+    /// segmentation per frame, OUT_tF.seg.nrrd when there are several, classes as named segments).
     #[arg(short, long, value_name = "OUT.nii.gz")]
     output: PathBuf,
     /// Replace an existing label volume.

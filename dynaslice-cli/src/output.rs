@@ -17,7 +17,8 @@ pub enum Kind {
     Model,
     /// Cross-sections for training (native JSON); replacing one needs `--force`.
     TrainingInput,
-    /// A label volume (`.nii`, `.nii.gz`); replacing one needs `--force`.
+    /// A label volume (`.nii`, `.nii.gz`, or 3D Slicer's `.seg.nrrd`); replacing one needs
+    /// `--force`.
     LabelVolume,
     /// A table (`.csv`).
     Csv,
@@ -32,7 +33,7 @@ impl Kind {
         match self {
             Kind::Model => &[".dsm"],
             Kind::TrainingInput => &[".json"],
-            Kind::LabelVolume => &[".nii", ".nii.gz"],
+            Kind::LabelVolume => &[".nii", ".nii.gz", ".seg.nrrd"],
             Kind::Csv => &[".csv"],
             Kind::Png => &[".png"],
             Kind::Mesh => &[".ply", ".obj", ".stl", ".vtp"],

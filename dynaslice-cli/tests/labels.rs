@@ -101,6 +101,76 @@ fn box_grid_frames_and_volumes() {
     assert!(v0 < ball(0.0) && v0 > 0.8 * ball(0.0), "{first}");
 }
 
+/// `-o NAME.seg.nrrd`: a 3D Slicer segmentation per frame (`NAME_tF.seg.nrrd`) with the same
+/// voxels and world positions as the NIfTI output, the classes as named segments; slicerio (the
+/// library Slicer users script with) reads the names, label values and the LPS geometry.
+#[test]
+fn slicer_segmentations_per_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_model(dir.path());
+    let out = dir.path().join("labels.seg.nrrd");
+    let args = |out: &Path| {
+        vec![
+            "labels".to_string(),
+            model.clone(),
+            "--bounds=-10,-25,-18,30,15,22".into(),
+            "--spacing".into(),
+            "2".into(),
+            "--times".into(),
+            "0:2:2".into(),
+            "-o".into(),
+            out.to_str().unwrap().to_string(),
+        ]
+    };
+    let run = |a: Vec<String>| {
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = dynaslice(&a);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(args(&out));
+    let nifti = dir.path().join("labels.nii.gz");
+    run(args(&nifti));
+    let reference = read_volume(&nifti).unwrap();
+    let voxels = reference.labels.len() / 2;
+    for f in 0..2 {
+        let frame = dir.path().join(format!("labels_t{f}.seg.nrrd"));
+        let (v, table) = dynaslice_data::nrrd::read_volume(&frame).unwrap();
+        assert_eq!(v.dims, reference.dims);
+        assert_eq!(v.labels, reference.labels[f * voxels..(f + 1) * voxels]);
+        for (r, s) in v
+            .affine
+            .iter()
+            .flatten()
+            .zip(reference.affine.iter().flatten())
+        {
+            assert!(
+                (r - s).abs() < 1e-9,
+                "{:?} vs {:?}",
+                v.affine,
+                reference.affine
+            );
+        }
+        assert_eq!(
+            (table.name(3), table.name(12)),
+            ("ball".into(), "small ball".into())
+        );
+    }
+    let script = r#"
+import sys, slicerio
+seg = slicerio.read_segmentation(sys.argv[1])
+print("|".join(f"{s['name']}={s['labelValue']}" for s in seg["segments"]))
+print(" ".join(f"{float(v):.3f}" for v in seg["ijkToLPS"][:3, 3]))
+"#;
+    let frame = dir.path().join("labels_t1.seg.nrrd");
+    if let Some(text) = dynaslice_test_support::python::run_python(&["slicerio"], script, &[&frame])
+    {
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "ball=3|small ball=12", "{text}");
+        // Voxel (0,0,0) at RAS (-9, -24, -17) is LPS (9, 24, -17).
+        assert_eq!(lines[1], "9.000 24.000 -17.000", "{text}");
+    }
+}
+
 #[test]
 fn reference_grid_is_copied_exactly() {
     let dir = tempfile::tempdir().unwrap();

@@ -16,6 +16,8 @@ pub mod pruned;
 pub mod voxel_grid;
 
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
+use dynaslice_data::nrrd::{frame_path, write_segmentation, SegmentationHeader};
+use dynaslice_data::ClassInfo;
 pub use pruned::{Evaluation, PruneStats, DEFAULT_SAFETY};
 pub use voxel_grid::VoxelGrid;
 
@@ -119,7 +121,9 @@ fn dense_label_indices(model: &Model, grid: &VoxelGrid, t: f64, out: &mut [u32])
     )
 }
 
-/// Writes `model`'s label volume on `grid` to `path` (`.nii` or `.nii.gz`) by the default
+/// Writes `model`'s label volume on `grid` to `path` (`.nii` or `.nii.gz`: one NIfTI, a frame
+/// per time; `.seg.nrrd`: a 3D Slicer segmentation per frame, named by
+/// [`dynaslice_data::nrrd::frame_path`], with the classes' names and palette colours) by the default
 /// [`Evaluation`], calling `on_frame(f)` after frame f is written. Returns the voxel count of
 /// each label index (0 = background, k = class k) per frame.
 pub fn write_model_labels(
@@ -152,7 +156,27 @@ pub fn write_model_labels_with(
         label_range: (lo, hi),
         description: "dynaslice labels (Eq. 11 argmin)".into(),
     };
-    let mut stream = NiftiStream::create(path, &header)?;
+    let segmentation = path
+        .to_string_lossy()
+        .to_ascii_lowercase()
+        .ends_with(".seg.nrrd");
+    let mut stream = if segmentation {
+        None
+    } else {
+        Some(NiftiStream::create(path, &header)?)
+    };
+    let segments = SegmentationHeader {
+        dims: grid.dims,
+        affine: grid.affine,
+        classes: model
+            .classes()
+            .map(|c| ClassInfo {
+                name: c.name.to_string(),
+                label: c.label,
+                color: None,
+            })
+            .collect(),
+    };
     let n = grid.voxels_per_frame();
     let mut indices = vec![0u32; n];
     let mut labels = vec![0i32; n];
@@ -164,11 +188,16 @@ pub fn write_model_labels_with(
             count[i as usize] += 1;
             *l = values[i as usize];
         }
-        stream.write_frame(&labels)?;
+        match &mut stream {
+            Some(stream) => stream.write_frame(&labels)?,
+            None => write_segmentation(&frame_path(path, f, grid.times.len()), &segments, &labels)?,
+        }
         counts.push(count);
         on_frame(f);
     }
-    stream.finish()?;
+    if let Some(stream) = stream {
+        stream.finish()?;
+    }
     Ok(counts)
 }
 
