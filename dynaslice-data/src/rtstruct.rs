@@ -210,18 +210,34 @@ pub fn read(path: &Path, extent: RoiExtent) -> Result<Sequence> {
         ))
         .in_file(path));
     }
-    check_lengths(path, size).map_err(|e| e.in_file(path))?;
-    let obj = OpenFileOptions::new()
-        .read_until(tags::PIXEL_DATA)
-        .open_file(path)
-        .map_err(|e| dicom(format!("not a readable DICOM file: {}", chain(&e))).in_file(path))?;
+    in_dicom_rs(|| check_lengths(path, size)).map_err(|e| e.in_file(path))?;
+    let obj = in_dicom_rs(|| {
+        OpenFileOptions::new()
+            .read_until(tags::PIXEL_DATA)
+            .open_file(path)
+            .map_err(|e| dicom(format!("not a readable DICOM file: {}", chain(&e))))
+    })
+    .map_err(|e| e.in_file(path))?;
     let rois = parse_rois(&obj, path).map_err(|e| e.in_file(path))?;
     build(rois, extent, path).map_err(|e| e.in_file(path))
 }
 
-/// Walks the element headers without reading values and refuses any declared length beyond the
-/// file's size: dicom-rs allocates (and zero-fills) a value's declared length before reading it,
-/// so a small corrupted file declaring a 4 GiB element would otherwise take gigabytes.
+/// Runs `f`, which calls dicom-rs's parsers: they assert some structural invariants of the file
+/// with panics (dicom-parser 0.10's lazy reader on an item header outside any sequence), which
+/// become an error here, so that no input makes the reader panic.
+fn in_dicom_rs<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|panic| {
+        let what = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a malformed structure".into());
+        Err(dicom(format!(
+            "not a readable DICOM file: the DICOM parser stopped on {what}"
+        )))
+    })
+}
+
 /// Walks the file meta group's element headers (always explicit VR little endian), refusing a
 /// declared length larger than the whole file: dicom-object allocates a declared length before
 /// reading it, so a 1 kB file declaring 3 GB would otherwise take 3 GB.
@@ -263,6 +279,9 @@ fn check_meta_lengths(file: &mut BufReader<File>, size: u64) -> Result<()> {
     }
 }
 
+/// Walks the element headers without reading values and refuses any declared length beyond the
+/// file's size: dicom-rs allocates (and zero-fills) a value's declared length before reading it,
+/// so a small corrupted file declaring a 4 GiB element would otherwise take gigabytes.
 fn check_lengths(path: &Path, size: u64) -> Result<()> {
     let unreadable = |what: String| dicom(format!("not a readable DICOM file: {what}"));
     let mut file = BufReader::new(File::open(path).map_err(|e| DataError::new(e.into()))?);

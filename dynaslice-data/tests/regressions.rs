@@ -34,3 +34,17 @@ fn rtstruct_declaring_a_huge_meta_element_is_refused_without_allocating_it() {
         "{message}"
     );
 }
+
+/// An RTSTRUCT with an item header outside any sequence: dicom-parser's lazy reader panicked
+/// ("item header should be read only inside an existing sequence"). Now an error naming the file.
+#[test]
+fn rtstruct_with_an_item_outside_a_sequence_is_an_error() {
+    let path = regression("rtstruct-item-outside-sequence.dcm");
+    let e = read(std::slice::from_ref(&path), &InputOptions::default()).unwrap_err();
+    let message = e.to_string();
+    assert!(
+        message.contains("rtstruct-item-outside-sequence.dcm")
+            && message.contains("not a readable DICOM file"),
+        "{message}"
+    );
+}

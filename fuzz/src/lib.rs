@@ -40,12 +40,31 @@ pub const TARGETS: [&str; 10] = [
 /// run needs no separate seed build (`scripts/ci-fuzz.sh` passes the corpus folder). A seed
 /// the reader refuses stops the run.
 pub fn init(target: &str) {
+    if target == "rtstruct" {
+        allow_dicom_rs_panics();
+    }
     if let Some(dir) = std::env::var_os("DYNASLICE_FUZZ_SEEDS") {
         match fixtures::write_seeds(target, std::path::Path::new(&dir)) {
             Ok(n) => eprintln!("{target}: {n} seeds written to {}", dir.to_string_lossy()),
             Err(e) => panic!("{target}: cannot write the seeds: {e}"),
         }
     }
+}
+
+/// dicom-rs asserts some structural invariants with panics, which `rtstruct::read` turns into
+/// errors (`catch_unwind`); libFuzzer's panic hook would abort on them before the unwinding
+/// reaches it. Panics raised inside the dicom-rs crates are therefore let through to be caught;
+/// every other panic still aborts, as a crash.
+fn allow_dicom_rs_panics() {
+    let abort_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let in_dicom_rs = info
+            .location()
+            .is_some_and(|l| l.file().contains("/dicom-"));
+        if !in_dicom_rs {
+            abort_hook(info);
+        }
+    }));
 }
 
 use dynaslice_core::format::ModelWriter;
