@@ -54,7 +54,8 @@ use std::path::Path;
 
 use super::error::{DataError, ErrorKind, Result};
 use super::label_table::LabelTable;
-use super::sequence::{cross, dot, Annotation, Frame, Plane, Rect, Sequence};
+use super::reslice::{normalize, plane_axes};
+use super::sequence::{dot, Annotation, Frame, Plane, Rect, Sequence};
 use crate::geometry::polygon::contains;
 use crate::geometry::repair::{even_odd_rings, find_contacts};
 use crate::geometry::Polygon;
@@ -348,11 +349,6 @@ fn solid_labels(file: &RawFile) -> BTreeSet<i32> {
         .collect()
 }
 
-fn normalize(a: [f64; 3]) -> [f64; 3] {
-    let n = dot(a, a).sqrt();
-    a.map(|x| x / n)
-}
-
 /// Builds the frame of one file for the given sequence classes (sorted labels).
 fn to_frame(path: &Path, file: &RawFile, time: f64, labels: &[i32]) -> Result<Frame> {
     let solids = solid_labels(file);
@@ -557,13 +553,7 @@ fn to_plane(
     centroid_all: [f64; 3],
 ) -> Result<Plane> {
     let (n, offset) = resolve_plane(at, rp, tolerance)?;
-    let axis = (0..3)
-        .min_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs()))
-        .unwrap_or(0);
-    let mut e = [0.0; 3];
-    e[axis] = 1.0;
-    let u = normalize(std::array::from_fn(|k| e[k] - dot(e, n) * n[k]));
-    let v = cross(n, u);
+    let (u, v) = plane_axes(n);
     let centroid = if rp.vertices.is_empty() {
         centroid_all
     } else {

@@ -157,6 +157,18 @@ pub(crate) fn normalize(a: [f64; 3]) -> [f64; 3] {
     a.map(|x| x / n)
 }
 
+/// In-plane axes (u, v) of a plane with unit normal `n`: u the world axis least aligned with
+/// `n`, made orthogonal to it (so axial planes get u = x, v = y), and v = n × u.
+pub(crate) fn plane_axes(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let axis = (0..3)
+        .min_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs()))
+        .unwrap_or(0);
+    let mut e = [0.0; 3];
+    e[axis] = 1.0;
+    let u = orthogonal(e, n);
+    (u, cross(n, u))
+}
+
 /// Unit `a` made orthogonal to unit `n`.
 pub(crate) fn orthogonal(a: [f64; 3], n: [f64; 3]) -> [f64; 3] {
     let d = dot(a, n);

@@ -90,6 +90,7 @@ use dicom_parser::dataset::LazyDataToken;
 use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
 
 use super::error::{DataError, ErrorKind, Result};
+use super::reslice::{normalize, plane_axes};
 use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 use crate::geometry::{Point2, Polygon};
 
@@ -613,11 +614,6 @@ fn bounds(points: impl Iterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
     )
 }
 
-fn normalize(a: [f64; 3]) -> [f64; 3] {
-    let n = dot(a, a).sqrt();
-    a.map(|x| x / n)
-}
-
 /// One plane being built: its frame, position and the (ROI, contour) pairs on it.
 struct PlaneDraft {
     orientation: usize,
@@ -762,13 +758,7 @@ fn build(rois: Vec<Roi>, extent: RoiExtent, path: &Path) -> Result<Sequence> {
     let mut repeated = vec![0usize; rois.len()];
     for draft in &drafts {
         let n = draft.normal;
-        let axis = (0..3)
-            .min_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs()))
-            .unwrap_or(0);
-        let mut e = [0.0; 3];
-        e[axis] = 1.0;
-        let u = normalize(std::array::from_fn(|k| e[k] - dot(e, n) * n[k]));
-        let v = cross(n, u);
+        let (u, v) = plane_axes(n);
         let mut plane = Plane {
             origin: n.map(|x| x * draft.offset),
             u,

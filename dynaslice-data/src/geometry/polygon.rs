@@ -91,18 +91,24 @@ pub struct Crossing {
     pub near: Point2,
 }
 
+/// Every edge of `rings` as (ring, edge index, start, end), the closing edge included.
+pub fn ring_edges<R: AsRef<[Point2]>>(rings: &[R]) -> Vec<(usize, usize, Point2, Point2)> {
+    rings
+        .iter()
+        .enumerate()
+        .flat_map(|(pi, ring)| {
+            let poly = ring.as_ref();
+            let n = poly.len();
+            (0..n).map(move |i| (pi, i, poly[i], poly[(i + 1) % n]))
+        })
+        .collect()
+}
+
 /// Finds two edges of `polys` that cross or touch, other than consecutive edges of one polygon
 /// meeting at their shared vertex. Consecutive edges that fold back onto each other (a spike) are
 /// reported too. Edges are bucketed on a grid, so the cost is near-linear for real contours.
 pub fn find_crossing(polys: &[Polygon]) -> Option<Crossing> {
-    let edges: Vec<(usize, usize, Point2, Point2)> = polys
-        .iter()
-        .enumerate()
-        .flat_map(|(pi, poly)| {
-            let n = poly.len();
-            (0..n).map(move |i| (pi, i, poly[i], poly[(i + 1) % n]))
-        })
-        .collect();
+    let edges = ring_edges(polys);
     let grid = BucketGrid::new(edges.iter().map(|e| (e.2, e.3)), None)?;
     for cell in 0..grid.cell_count() {
         let items = grid.bucket(cell);

@@ -26,7 +26,7 @@ use i_overlay::float::overlay::OverlayOptions;
 use i_overlay::float::simplify::SimplifyShape;
 
 use super::bucket_grid::BucketGrid;
-use super::polygon::{segments_intersect, signed_area, Point2, Polygon};
+use super::polygon::{ring_edges, segments_intersect, signed_area, Point2, Polygon};
 
 /// Where the rings of one annotation cross or touch in a way only an even-odd repair resolves.
 #[derive(Debug, Clone, PartialEq)]
@@ -85,14 +85,7 @@ fn same_ray(u: Point2, w: Point2) -> bool {
 /// Edges are bucketed on a grid, so the cost is near-linear for real contours.
 pub fn find_contacts(polys: &[Polygon]) -> Option<Contacts> {
     let rings = well_formed(polys)?;
-    let edges: Vec<(usize, usize, Point2, Point2)> = rings
-        .iter()
-        .enumerate()
-        .flat_map(|(pi, r)| {
-            let n = r.len();
-            (0..n).map(move |i| (pi, i, r[i], r[(i + 1) % n]))
-        })
-        .collect();
+    let edges = ring_edges(&rings);
     let grid = BucketGrid::new(edges.iter().map(|e| (e.2, e.3)), None)?;
     let mut involved: HashSet<usize> = HashSet::new();
     let mut between = false;
