@@ -126,9 +126,11 @@ for target in $targets; do
     runs=$(final_stat "$target" number_of_executed_units)
     t=$(cat "$logs/$target.secs" 2>/dev/null || echo "?")
     rate=$(final_stat "$target" average_exec_per_sec)
-    # The last status line's coverage and corpus size ("cov: N ft: M corp: C/S").
-    cov=$(grep -Eo 'cov: [0-9]+' "$logs/$target.log" | tail -n 1 | cut -d' ' -f2)
-    corp=$(grep -Eo 'corp: [0-9]+' "$logs/$target.log" | tail -n 1 | cut -d' ' -f2)
+    # The last status line's coverage and corpus size ("cov: N ft: M corp: C/S"); none where
+    # the target never started (`|| true`: under pipefail a grep without a match would end the
+    # script here, before the table and the failure report).
+    cov=$(grep -Eo 'cov: [0-9]+' "$logs/$target.log" | tail -n 1 | cut -d' ' -f2 || true)
+    corp=$(grep -Eo 'corp: [0-9]+' "$logs/$target.log" | tail -n 1 | cut -d' ' -f2 || true)
     result=ok
     [ "$rc" = 0 ] || { result="FAILED (exit $rc)"; failed="$failed $target"; }
     printf '%-16s %6s %12s %10s %8s %7s  %s\n' "$target" "$t" "${runs:-?}" "${rate:-?}" \

@@ -1,6 +1,7 @@
 //! `dynaslice bench`: training-step throughput against this machine's sgemm peak.
 
-use super::options::{count, MAX_REPEATS, MAX_SAMPLES_PER_STEP, MAX_THREADS};
+use super::options::{count, MAX_REPEATS, MAX_THREADS};
+use super::samples::SampleArgs;
 use anyhow::{bail, Result};
 use dynaslice_core::format::{MAX_CLASSES, MAX_SINE_LAYERS, MAX_WIDTH};
 use dynaslice_train::bench;
@@ -14,15 +15,11 @@ pub struct Args {
           value_parser = count(1, MAX_WIDTH as u32))]
     widths: Vec<u32>,
     /// Class counts to measure.
-    #[arg(long, value_delimiter = ',', default_value = "1,2,8",
+    #[arg(long, value_delimiter = ',', default_value = "1,3,8,41",
           value_parser = count(1, MAX_CLASSES))]
     classes: Vec<usize>,
-    /// Contour and plane samples per class.
-    #[arg(long, default_value_t = 4096, value_parser = count(1, MAX_SAMPLES_PER_STEP))]
-    per_class: usize,
-    /// Space-time samples.
-    #[arg(long, default_value_t = 4096, value_parser = count(1, MAX_SAMPLES_PER_STEP))]
-    space: usize,
+    #[command(flatten)]
+    samples: SampleArgs,
     /// Worker threads.
     #[arg(long, default_value_t = 2, value_parser = count(1, MAX_THREADS))]
     threads: usize,
@@ -33,7 +30,9 @@ pub struct Args {
 
 /// Times both space-time schemes for every K; the trainer uses the cheaper by FLOP count
 /// (`SpaceTimeScheme::cheapest`), marked `*`. "hinge": the contour points whose orientation
-/// term was active, whose tangent backward therefore ran.
+/// term was active, whose tangent backward therefore ran. "× K=3": the step time of the
+/// trainer's scheme over that of K = 3 (or of the first K given, without 3), measured in the
+/// same run.
 pub fn run(a: Args) -> Result<()> {
     if a.widths.is_empty() || a.widths.len() > MAX_SINE_LAYERS {
         bail!(
@@ -41,45 +40,80 @@ pub fn run(a: Args) -> Result<()> {
             a.widths.len()
         );
     }
+    if a.classes.is_empty() {
+        bail!("--classes: give at least one class count");
+    }
+    let counts = a.samples.counts();
     let peak = bench::sgemm_peak(a.threads, a.repeats);
     println!(
         "sgemm peak (gemm crate, 1024³): {:.1} GFLOP/s on 1 thread, {:.1} on {} threads",
         peak.single, peak.all, a.threads
     );
-    println!("training step, widths {:?}, {} contour + {} plane samples per class, {} space-time, {} threads:", a.widths, a.per_class, a.per_class, a.space, a.threads);
     println!(
-        "{:>3} {:>25} {:>9} {:>10} {:>12} {:>9} {:>8} {:>7}",
-        "K", "space-time scheme", "params", "s/step", "points/s", "GFLOP/s", "of peak", "hinge"
+        "training step, widths {:?}, {}; {} threads:",
+        a.widths,
+        counts.describe(),
+        a.threads
     );
-    for &k in &a.classes {
+    let base_k = if a.classes.contains(&3) {
+        3
+    } else {
+        a.classes[0]
+    };
+    println!(
+        "{:>3} {:>13} {:>25} {:>9} {:>10} {:>12} {:>9} {:>8} {:>7} {:>7}",
+        "K",
+        "samples",
+        "space-time scheme",
+        "params",
+        "s/step",
+        "points/s",
+        "GFLOP/s",
+        "of peak",
+        "hinge",
+        format!("× K={base_k}")
+    );
+    let mut base = None;
+    let mut rows = Vec::new();
+    // The base K first, so every row can be compared with it.
+    let order = std::iter::once(base_k).chain(a.classes.iter().copied().filter(|&k| k != base_k));
+    for k in order {
         for scheme in [
             SpaceTimeScheme::ReverseOverReverse,
             SpaceTimeScheme::ForwardTangents,
         ] {
-            let r = bench::step(
-                &a.widths,
-                k,
-                scheme,
-                a.per_class,
-                a.space,
-                a.threads,
-                a.repeats,
-            );
-            let mark = if scheme == SpaceTimeScheme::cheapest(k) {
-                "*"
-            } else {
-                " "
+            let r = bench::step(&a.widths, k, scheme, &counts, a.threads, a.repeats);
+            let chosen = scheme == SpaceTimeScheme::cheapest(k);
+            if chosen && k == base_k {
+                base = Some(r.seconds);
+            }
+            rows.push((k, chosen, r));
+        }
+    }
+    for &k in &a.classes {
+        for (_, chosen, r) in rows.iter().filter(|row| row.0 == k) {
+            let mark = if *chosen { "*" } else { " " };
+            let ratio = match (chosen, base) {
+                (true, Some(b)) => format!("{:.2}", r.seconds / b),
+                _ => String::new(),
             };
             println!(
-                "{:>3} {:>24}{mark} {:>9} {:>10.4} {:>12.0} {:>9.1} {:>7.1}% {:>6.0}%",
+                "{:>3} {:>13} {:>24}{mark} {:>9} {:>10.4} {:>12.0} {:>9.1} {:>7.1}% {:>6.0}% {:>7}",
                 r.num_classes,
-                format!("{:?} ({}M)", scheme, scheme.cost(k)),
+                format!(
+                    "{}+{}+{}",
+                    counts.total(counts.contour_per_class, k),
+                    counts.total(counts.plane_per_class, k),
+                    counts.space
+                ),
+                format!("{:?} ({}M)", r.scheme, r.scheme.cost(k)),
                 r.params,
                 r.seconds,
                 r.points_per_second,
                 r.gflops,
                 100.0 * r.gflops / peak.all,
-                100.0 * r.active_contour
+                100.0 * r.active_contour,
+                ratio
             );
         }
     }

@@ -24,8 +24,8 @@ pub struct Args {
     /// Widths of the sine layers.
     #[arg(long, default_value = "256,256,256,256")]
     widths: String,
-    /// Mesh resolution (cells along the longest axis), also the cells per axis of the 3D IoU
-    /// grid; the exact shapes are meshed at twice this for the Chamfer distance.
+    /// Mesh resolution (cells along the longest axis), also of the 3D picture's meshes and the
+    /// cells per axis of the 3D IoU grid; the exact shapes are meshed at twice this for the Chamfer distance.
     #[arg(long, default_value_t = 96, value_parser = count(1, MAX_MESH_RESOLUTION / 2))]
     resolution: u32,
     /// Area-uniform samples per surface for the Chamfer distance.
@@ -34,8 +34,8 @@ pub struct Args {
     samples: usize,
 }
 
-/// Runs `dynaslice demo`: synth, train, mesh, labels, eval volume, eval synthetic and picture
-/// on the chambers shape, each printed then run as an ordinary subcommand, all outputs under
+/// Runs `dynaslice demo`: synth, train, mesh, labels, eval volume, eval synthetic, picture and
+/// picture --3d on the chambers shape, each printed then run as an ordinary subcommand, all outputs under
 /// `--output`.
 pub fn run(a: Args) -> Result<()> {
     let start = Instant::now();
@@ -126,6 +126,15 @@ pub fn run(a: Args) -> Result<()> {
             "-o".into(),
             out("figure.png"),
         ],
+        vec![
+            "picture".into(),
+            "--3d".into(),
+            model.clone(),
+            "--resolution".into(),
+            a.resolution.to_string(),
+            "-o".into(),
+            out("surfaces.png"),
+        ],
     ];
     for line in &lines {
         run_line(line)?;
@@ -133,7 +142,7 @@ pub fn run(a: Args) -> Result<()> {
     eprintln!(
         "\ndemo finished in {:.0} s; outputs in {}: model.dsm (+ .loss.png), meshes/series.pvd (open in ParaView), \
          labels.nii.gz (on the ground truth's grid, 37 frames), volumes.csv (+ .png), \
-         metrics.csv, figure.png",
+         metrics.csv, figure.png, surfaces.png (the chambers in 3D at 4 times)",
         start.elapsed().as_secs_f64(),
         a.output.display()
     );

@@ -1,27 +1,44 @@
 //! `dynaslice labels MODEL.dsm --like REF.nii.gz -o OUT.nii.gz` (or `--bounds`, `--spacing`,
-//! `--times`): the model's Eq. 11 label volume, written frame by frame (docs/metrics.md).
+//! `--times`): the model's Eq. 11 label volume, written frame by frame (docs/metrics.md), with
+//! its colour tables, or as 3D Slicer segmentations and their sequence.
 
 use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
-use super::options::{count, finite_f64, positive_f64, time_series, MAX_THREADS, MAX_TIMES};
+use super::options::{
+    count, f32_in, finite_f64, positive_f64, time_series, MAX_SAFETY, MAX_THREADS, MAX_TIMES,
+};
 use super::output::{regular_file, Kind, Plan};
 use anyhow::{bail, Context, Result};
 use dynaslice_core::Model;
-use dynaslice_data::nifti::read_volume;
-use dynaslice_data::TimeSeries;
-use dynaslice_volume::VoxelGrid;
+use dynaslice_data::nifti::read_geometry;
+use dynaslice_data::{palette, TimeSeries};
+use dynaslice_volume::{output_files, Evaluation, VoxelGrid, WriteOptions, DEFAULT_SAFETY};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// Arguments of `dynaslice labels`.
 #[derive(clap::Args, Debug)]
+#[command(after_help = "\
+Files: -o NAME.nii.gz (or .nii) writes the volume, a frame per time, and beside it NAME.ctbl
+(a 3D Slicer colour table) and NAME.label.txt (an ITK-SNAP label description file) giving each
+label its class's name and colour. -o NAME.seg.nrrd writes a 3D Slicer segmentation; with
+several frames, one NAME_tF.seg.nrrd per frame plus NAME.seq.nrrd, all frames as one sequence
+for Slicer's Sequences module (Slicer 5.10 and later index it by time, earlier 5.x number the
+frames). Existing files are replaced only with --force. Classes take the colours of the
+model's training input where it had them (recorded in the model file), else the palette's.
+
+Evaluation: pruned by default (the network is evaluated near the boundaries between labels and
+blocks far from every boundary are filled), in a fraction of the time of --dense (every voxel)
+and with the same labels wherever the network's gradients are at most --safety (a trained
+distance field's are close to 1; docs/performance.md).")]
 pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
     /// Reference NIfTI image: the volume gets its dimensions, affine and frames (frame f at
-    /// time f · its frame interval, as when training on it).
+    /// time f · its frame interval, as when training on it); only its header is read, so any
+    /// voxel type will do.
     #[arg(long, value_name = "REF.nii.gz", conflicts_with_all = ["bounds", "spacing", "times"])]
     like: Option<PathBuf>,
     /// World box X0,Y0,Z0,X1,Y1,Z1 (default: the model's domain).
@@ -41,13 +58,24 @@ pub struct Args {
     #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
-    /// Output .nii or .nii.gz (one file, a frame per time), or .seg.nrrd (a 3D Slicer
-    /// segmentation per frame, OUT_tF.seg.nrrd when there are several, classes as named segments).
+    /// Output .nii or .nii.gz (one file, a frame per time, plus OUT.ctbl and OUT.label.txt
+    /// colour tables), or .seg.nrrd (a 3D Slicer segmentation per frame, OUT_tF.seg.nrrd when
+    /// there are several, plus their sequence OUT.seq.nrrd; classes as named segments).
     #[arg(short, long, value_name = "OUT.nii.gz")]
     output: PathBuf,
-    /// Replace an existing label volume.
+    /// Replace existing output files (the volume, its colour tables or sequence).
     #[arg(long)]
     force: bool,
+    /// Evaluate the network at every voxel: the slow check of the default pruned evaluation,
+    /// whose labels are the same wherever the gradients are at most --safety.
+    #[arg(long)]
+    dense: bool,
+    /// Safety factor s of the pruned evaluation's distance bound: a block is filled when every
+    /// corner's certified radius divided by s covers it (≥ 1; larger is safer for models far
+    /// from ‖∇f‖ = 1).
+    #[arg(long, default_value_t = DEFAULT_SAFETY, value_parser = f32_in(1.0, MAX_SAFETY),
+          allow_negative_numbers = true, conflicts_with = "dense")]
+    safety: f32,
     /// Worker threads (default: one per core).
     #[arg(long, value_parser = count(1, MAX_THREADS))]
     threads: Option<usize>,
@@ -56,24 +84,33 @@ pub struct Args {
 }
 
 /// Bytes per voxel while a frame is labelled and written: a u32 class index and an i32 label
-/// per voxel ([`dynaslice_volume::write_model_labels`]), and up to 2 more for the frame's
-/// encoded copy in the NIfTI writer.
-const BYTES_PER_VOXEL: f64 = 10.0;
+/// per voxel ([`dynaslice_volume::write_model_labels_with`]), and up to 4 more for the frame's
+/// encoded copy (2 in the NIfTI writer, up to 4 in a `.seg.nrrd` of labels beyond 16 bits; the
+/// sequence is compressed in chunks).
+const BYTES_PER_VOXEL: f64 = 12.0;
 
-/// Runs `dynaslice labels`: the model's Eq. 11 label volume on a reference grid or a box, as NIfTI.
+/// Runs `dynaslice labels`: the model's Eq. 11 label volume on a reference grid or a box, as
+/// NIfTI with colour tables or as 3D Slicer segmentations and their sequence.
 pub fn run(a: Args) -> Result<()> {
     let mut plan = Plan::new(
         [Some(&a.model), a.like.as_ref()].into_iter().flatten(),
         a.force,
     );
     plan.file("-o", &a.output, Kind::LabelVolume)?;
+    let evaluation = if a.dense {
+        Evaluation::Dense
+    } else {
+        Evaluation::Pruned { safety: a.safety }
+    };
+    evaluation.validate()?;
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
     let grid = match &a.like {
-        // The reference's voxels are read and dropped at once: only its geometry is used.
+        // The header alone: the reference's voxels are never needed, and its size is known
+        // (and checked below) before anything is allocated for it.
         Some(reference) => {
             regular_file("reference", reference)?;
-            VoxelGrid::like(&read_volume(reference)?)
+            VoxelGrid::like(&read_geometry(reference)?)
         }
         None => bounds_grid(&a, &model)?,
     };
@@ -84,12 +121,31 @@ pub fn run(a: Args) -> Result<()> {
         "use a coarser --spacing or smaller --bounds",
         a.memory,
     )?;
+    let frames = grid.times.len();
+    // Every file the run writes, checked before any work: the frames' segmentations, the
+    // sequence and the colour tables may replace files as the volume may.
+    let files = output_files(&a.output, frames, true);
+    for path in files.iter().filter(|p| **p != a.output) {
+        plan.beside(path)?;
+        if !a.force && path.exists() {
+            bail!(
+                "{}: the file exists (it is written with the label volume {}); add --force to \
+                 replace it",
+                path.display(),
+                a.output.display()
+            );
+        }
+    }
+    let options = WriteOptions {
+        evaluation,
+        colors: file.classes().into_iter().map(|c| c.color).collect(),
+        companions: true,
+    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
         .build()
         .context("cannot start worker threads")?;
     let start = Instant::now();
-    let frames = grid.times.len();
     let terminal = std::io::stderr().is_terminal();
     let bar = terminal.then(|| {
         let bar = ProgressBar::new(frames as u64);
@@ -103,36 +159,45 @@ pub fn run(a: Args) -> Result<()> {
         bar
     });
     let mut last_log = Instant::now();
-    let counts = pool.install(|| {
-        dynaslice_volume::write_model_labels(&model, &grid, &a.output, |f| match &bar {
-            Some(bar) => bar.set_position(f as u64 + 1),
-            None if last_log.elapsed() >= Duration::from_secs(10) => {
-                eprintln!(
-                    "frame {}/{frames}, {:.0} s",
-                    f + 1,
-                    start.elapsed().as_secs_f64()
-                );
-                last_log = Instant::now();
-            }
-            None => {}
-        })
-    })?;
+    let counts =
+        pool.install(|| {
+            dynaslice_volume::write_model_labels_with(&model, &grid, &a.output, &options, |f| {
+                match &bar {
+                    Some(bar) => bar.set_position(f as u64 + 1),
+                    None if last_log.elapsed() >= Duration::from_secs(10) => {
+                        eprintln!(
+                            "frame {}/{frames}, {:.0} s",
+                            f + 1,
+                            start.elapsed().as_secs_f64()
+                        );
+                        last_log = Instant::now();
+                    }
+                    None => {}
+                }
+            })
+        })?;
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
+    let (volume, companions) = describe(&files);
     eprintln!(
-        "wrote {}: {nx}×{ny}×{nz} voxels × {frames} frame(s) in {:.1} s",
-        a.output.display(),
+        "wrote {volume}: {nx}×{ny}×{nz} voxels × {frames} frame(s) in {:.1} s",
         start.elapsed().as_secs_f64()
     );
-    // The class volumes of the first and last frame, a quick plausibility check.
+    for companion in companions {
+        eprintln!("  and {companion}");
+    }
+    // The class volumes of the first and last frame, a quick plausibility check, and the
+    // colour each class has in every output.
     let voxel = grid.voxel_volume();
-    for (k, class) in model.classes().enumerate() {
+    let colors = file.class_colors();
+    for ((k, class), color) in model.classes().enumerate().zip(colors) {
         let v = |f: usize| counts[f][k + 1] as f64 * voxel;
         eprintln!(
-            "  label {} {:?}: {:.6} at t = {}, {:.6} at t = {} (world units³)",
+            "  label {} {:?} {}: {:.6} at t = {}, {:.6} at t = {} (world units³)",
             class.label,
             class.name,
+            palette::to_hex(color),
             v(0),
             // Times come from f32 header fields: print them at that precision (1, not
             // 1.0000000074505806).
@@ -142,6 +207,40 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The written `files` ([`output_files`]) for the summary: the volume (a series of frames by
+/// its first and last), and the companion files, each named with what it is for.
+fn describe(files: &[PathBuf]) -> (String, Vec<String>) {
+    let lower = |p: &Path| p.to_string_lossy().to_ascii_lowercase();
+    let (volume, companions): (Vec<&PathBuf>, Vec<&PathBuf>) = files.iter().partition(|p| {
+        let name = lower(p);
+        name.ends_with(".seg.nrrd") || name.ends_with(".nii") || name.ends_with(".nii.gz")
+    });
+    let volume = match volume[..] {
+        [one] => one.display().to_string(),
+        [first, .., last] => format!(
+            "{} … {} (a segmentation per frame)",
+            first.display(),
+            last.display()
+        ),
+        [] => String::new(),
+    };
+    let companions = companions
+        .iter()
+        .map(|p| {
+            let name = lower(p);
+            let what = if name.ends_with(".ctbl") {
+                "3D Slicer colour table"
+            } else if name.ends_with(".label.txt") {
+                "ITK-SNAP label descriptions"
+            } else {
+                "3D Slicer sequence of the frames"
+            };
+            format!("{} ({what})", p.display())
+        })
+        .collect();
+    (volume, companions)
 }
 
 /// The grid of `--bounds`, `--spacing` and `--times`, each defaulting to the model's.

@@ -19,6 +19,7 @@ mod options;
 mod output;
 mod picture;
 mod query;
+pub mod samples;
 mod synth;
 mod train;
 mod warnings;
@@ -29,6 +30,7 @@ use std::process::ExitCode;
 /// Reconstruct moving multi-structure 3D surfaces from sparse 2D cross-sections (DynaSlice).
 #[derive(Parser, Debug)]
 #[command(name = "dynaslice", version, arg_required_else_help = true)]
+#[command(mut_subcommands(options::negative_numbers))]
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -47,11 +49,13 @@ enum Command {
     Info(info::Args),
     /// Fit a 4D multi-class neural SDF to cross-sections and write the model.
     Train(train::Args),
-    /// Write a model's Eq. 11 label volume (NIfTI) on a reference image's grid or a box.
+    /// Write a model's Eq. 11 label volume (NIfTI with colour tables, or 3D Slicer .seg.nrrd) on a
+    /// reference image's grid or a box.
     Labels(labels::Args),
     /// Extract the classes' surfaces at a time or a series of times as closed meshes.
     Mesh(mesh::Args),
-    /// Draw a model's labels and the input contours on an input plane, at several times (PNG).
+    /// Draw a model's labels and the input contours on an input plane at several times, or with
+    /// --3d its class surfaces, shaded, at several times (PNG).
     Picture(picture::Args),
     /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
     Query(query::Args),

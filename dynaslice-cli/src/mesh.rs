@@ -118,6 +118,35 @@ fn resolve_classes(model: &Model, path: &Path, wanted: &[String]) -> Result<Vec<
     Ok(out)
 }
 
+/// The surfaces of `classes` (0-based channels) at world time `t` over the model's bounds: the
+/// one extraction `mesh` and `picture --3d` share. `report` gets one line on its cost (lattice,
+/// evaluations against a dense grid's, seconds).
+pub(crate) fn surfaces_at(
+    model: &Model,
+    t: f32,
+    classes: &[usize],
+    options: &Options,
+    report: impl Fn(String),
+) -> Result<Extraction> {
+    let start = Instant::now();
+    let extraction = mesh::extract(model, model.domain().bounds(), t, classes, options)?;
+    let (lattice, stats) = (&extraction.lattice, &extraction.stats);
+    report(format!(
+        "t = {t}: {}x{}x{} cells of {:.4}, {} value + {} jacobian evaluations \
+         (dense grid: {} values, {:.1}x more), {:.2} s",
+        lattice.cells[0],
+        lattice.cells[1],
+        lattice.cells[2],
+        lattice.h,
+        stats.value_evaluations,
+        stats.jacobian_evaluations,
+        stats.dense_evaluations,
+        stats.dense_evaluations as f64 / stats.value_evaluations.max(1) as f64,
+        start.elapsed().as_secs_f64()
+    ));
+    Ok(extraction)
+}
+
 /// Runs `dynaslice mesh`: the selected classes' surfaces at one time or a series, on `--threads`.
 pub fn run(args: Args) -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
@@ -200,36 +229,17 @@ fn mesh_all(args: &Args) -> Result<()> {
         );
         bar
     });
-    let bounds = model.domain().bounds();
     let (mut values, mut jacobians, mut dense) = (0u64, 0u64, 0u64);
     let started = Instant::now();
+    let report = |line: String| match &bar {
+        Some(bar) => bar.println(line),
+        None => eprintln!("{line}"),
+    };
     for (i, &t) in times.iter().enumerate() {
-        let start = Instant::now();
-        let Extraction {
-            meshes,
-            lattice,
-            stats,
-        } = mesh::extract(&model, bounds, t, &classes, &options)?;
-        let seconds = start.elapsed().as_secs_f64();
+        let Extraction { meshes, stats, .. } = surfaces_at(&model, t, &classes, &options, report)?;
         values += stats.value_evaluations;
         jacobians += stats.jacobian_evaluations;
         dense += stats.dense_evaluations;
-        let report = |line: String| match &bar {
-            Some(bar) => bar.println(line),
-            None => eprintln!("{line}"),
-        };
-        report(format!(
-            "t = {t}: {}x{}x{} cells of {:.4}, {} value + {} jacobian evaluations \
-             (dense grid: {} values, {:.1}x more), {seconds:.2} s",
-            lattice.cells[0],
-            lattice.cells[1],
-            lattice.cells[2],
-            lattice.h,
-            stats.value_evaluations,
-            stats.jacobian_evaluations,
-            stats.dense_evaluations,
-            stats.dense_evaluations as f64 / stats.value_evaluations.max(1) as f64
-        ));
         for (mesh, &k) in meshes.iter().zip(&classes) {
             let path = files.path(i, k, &names[k]);
             let topology = mesh.topology();

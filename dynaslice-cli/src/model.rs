@@ -4,6 +4,8 @@
 use super::output::regular_file;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::{Model, ModelBytes};
+use dynaslice_data::{palette, ClassInfo};
+use dynaslice_train::model_file::parse_class_colors;
 use std::path::{Path, PathBuf};
 
 /// A model file read from disk and validated.
@@ -33,6 +35,43 @@ impl ModelFile {
     /// The model.
     pub fn model(&self) -> Model<'_> {
         self.bytes.model().expect("validated by open")
+    }
+
+    /// The model's classes in channel order, each with the display colour its input had where
+    /// the model file records one (`class_colors` in its metadata), else `None`: pass them to
+    /// `dynaslice_figures::class_color` (or `dynaslice_data::palette::class_color`) with the
+    /// class's index. A malformed `class_colors` line is ignored with a warning; models
+    /// written before the line existed have no colours.
+    pub fn classes(&self) -> Vec<ClassInfo> {
+        let model = self.model();
+        let recorded = parse_class_colors(model.metadata()).unwrap_or_else(|e| {
+            log::warn!(
+                "{}: {e}; the classes take the palette's colours",
+                self.path.display()
+            );
+            Vec::new()
+        });
+        model
+            .classes()
+            .map(|c| ClassInfo {
+                name: c.name.to_string(),
+                label: c.label,
+                color: recorded
+                    .iter()
+                    .find(|&&(label, _)| label == c.label)
+                    .map(|&(_, color)| color),
+            })
+            .collect()
+    }
+
+    /// One display colour per channel: the input's where recorded ([`ModelFile::classes`]),
+    /// else the palette's for that channel; what every output of the model shows the class in.
+    pub fn class_colors(&self) -> Vec<[u8; 3]> {
+        self.classes()
+            .iter()
+            .enumerate()
+            .map(|(k, c)| palette::class_color(k, c.color))
+            .collect()
     }
 
     /// The file's size in bytes.

@@ -137,15 +137,42 @@ where
 {
     move |s| {
         let range = format!("a whole number from {lo} to {hi}");
-        let v: T = s
-            .trim()
-            .parse()
-            .map_err(|_| outside("not a whole number", &range))?;
+        let v: T = s.trim().parse().map_err(|_| {
+            // `-1` or `99999999999999999999` is a whole number, only outside what `T` holds.
+            let digits = s.trim();
+            let digits = digits.strip_prefix(['-', '+']).unwrap_or(digits);
+            let whole = !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit());
+            outside(
+                if whole {
+                    "out of range"
+                } else {
+                    "not a whole number"
+                },
+                &range,
+            )
+        })?;
         if v < lo || v > hi {
             return Err(outside("out of range", &range));
         }
         Ok(v)
     }
+}
+
+/// Lets the values of every option and positional argument of `cmd` and of its subcommands, at
+/// every level, be negative numbers: without it clap takes `--threads -1` for the unknown flag
+/// `-1` ("unexpected argument '-1' found"), so the value parser, which names the option and the
+/// allowed range, never sees it (and `--x -5` needed `--x=-5`). Other values starting with `-`
+/// are still options. Applied once, to the whole command line, by the `Cli` in lib.rs
+/// (`#[command(mut_subcommands(options::negative_numbers))]`).
+pub fn negative_numbers(cmd: clap::Command) -> clap::Command {
+    cmd.mut_args(|arg| {
+        if arg.get_action().takes_values() {
+            arg.allow_negative_numbers(true)
+        } else {
+            arg
+        }
+    })
+    .mut_subcommands(negative_numbers)
 }
 
 /// An `A:B:N` time series ([`TimeSeries`]: finite ends, B > A) of at most `max` times.
@@ -197,10 +224,24 @@ mod tests {
     fn counts_are_whole_and_bounded() {
         let c = count(1usize, 1024);
         assert_eq!(c("1024"), Ok(1024));
-        for bad in ["0", "1025", "-1", "1.5", "4e9", "100000"] {
+        for bad in ["0", "1025", "-1", "1.5", "4e9", "100000", "", "-", "x1"] {
             assert!(c(bad).is_err(), "{bad}");
         }
         assert!(c("0").unwrap_err().contains("from 1 to 1024"));
+        // Whole numbers that the type cannot hold are out of range, not "not whole".
+        for (s, what) in [
+            ("-1", "out of range"),
+            ("99999999999999999999999", "out of range"),
+            ("1.5", "not a whole number"),
+            ("-x", "not a whole number"),
+            ("--5", "not a whole number"),
+        ] {
+            let e = c(s).unwrap_err();
+            assert!(
+                e.starts_with(what) && e.contains("from 1 to 1024"),
+                "{s}: {e}"
+            );
+        }
     }
 
     #[test]

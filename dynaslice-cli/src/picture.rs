@@ -1,18 +1,42 @@
 //! `dynaslice picture MODEL INPUT -o FIG.png`: predicted labels and input contours on a plane.
+//! `dynaslice picture --3d MODEL -o FIG.png`: the classes' surfaces at a few times, shaded.
 
 use super::input::{self, InputArgs};
+use super::mesh::surfaces_at;
 use super::model::ModelFile;
-use super::options::finite_f64;
+use super::options::{count, finite_f64, MAX_MESH_RESOLUTION};
 use super::output::{write_via, Kind, Plan};
 use anyhow::{bail, Context, Result};
 use dynaslice_figures::picture::{plane_labels, Panel};
+use dynaslice_figures::render3d::{self, Camera, RenderOptions, SurfacePanel};
+use dynaslice_mesh::Options;
 use std::path::PathBuf;
 
 /// Extra times one picture shows at most (each is a panel of the picture).
 const MAX_PANELS: usize = 64;
+/// Panels of a 3D picture of a moving model by default: enough to see the motion, few enough
+/// to stay readable side by side.
+const DEFAULT_3D_TIMES: usize = 4;
 
 /// Arguments of `dynaslice picture`.
 #[derive(clap::Args, Debug)]
+#[command(
+    // INPUT is required by the shared input options; a 3D picture needs the model alone. The
+    // two modes' options exclude each other, each named on its own in the error.
+    mut_args(one_mode),
+    mut_arg("inputs", |a| a.required(false).required_unless_present("three_d")),
+    after_help = "\
+Two kinds of picture:
+  dynaslice picture MODEL INPUT -o fig.png      the labels on an input plane, with its contours
+  dynaslice picture --3d MODEL -o surfaces.png  the classes' surfaces in 3D, no input needed
+
+--3d meshes every class at each time as `dynaslice mesh` does (at --resolution) and draws the
+surfaces shaded, one panel per time (by default 4 times evenly over the model's time range, the
+model's time for a static one), all panels from the same camera and framing so motion shows,
+with a legend of the class names and colours. Views, in the model's RAS world: oblique
+(default: from the front, a little to the patient's right and above, superior up), anterior,
+posterior, left, right (superior up), superior, inferior (anterior up); a small R/A/S triad in
+each panel shows the axes.")]
 pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
@@ -21,6 +45,10 @@ pub struct Args {
     /// Output picture (.png).
     #[arg(short, long)]
     output: PathBuf,
+    /// Draw the model's class surfaces in 3D (shaded, one panel per time) instead of labels on
+    /// an input plane; takes no INPUT.
+    #[arg(long = "3d", id = "three_d")]
+    three_d: bool,
     /// Annotated frame whose plane and contours are shown (index into the selected frames).
     #[arg(long, default_value_t = 0)]
     frame: usize,
@@ -28,16 +56,148 @@ pub struct Args {
     #[arg(long)]
     plane: Option<usize>,
     /// Extra times (world units) shown on the same plane without contours; default: halfway
-    /// to the next annotated frame.
+    /// to the next annotated frame. With --3d: the panels' times (default: 4 evenly over the
+    /// model's time range).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true,
           value_parser = finite_f64)]
     times: Option<Vec<f64>>,
+    /// --3d: where the surfaces are seen from.
+    #[arg(long, value_enum, default_value_t = View::Oblique, requires = "three_d")]
+    view: View,
+    /// --3d: meshing lattice cells along the longest axis of the model's bounds.
+    #[arg(long, default_value_t = 96, value_parser = count(1, MAX_MESH_RESOLUTION),
+          requires = "three_d")]
+    resolution: u32,
+    /// --3d: side of each panel in pixels.
+    #[arg(long, default_value_t = 480, value_parser = count(16, render3d::MAX_PANEL),
+          requires = "three_d")]
+    size: u32,
 }
 
-/// Runs `dynaslice picture`: the labels on one input plane (by default the frame's plane with
-/// the longest contours) at the frame's time, with its contours, and at the extra times
-/// (by default midway to the next frame), written as one PNG.
+/// The options of a 3D picture only.
+const THREE_D_ONLY: [&str; 4] = ["three_d", "view", "resolution", "size"];
+
+/// `arg` made to conflict with the 3D-only options where it is one of the plane picture's
+/// (the shared input options, `--frame`, `--plane`). Conflicts, unlike `requires`, hold
+/// whichever side is given (clap lets a present conflicting argument excuse a missing required
+/// one).
+fn one_mode(arg: clap::Arg) -> clap::Arg {
+    let inputs = <InputArgs as clap::Args>::augment_args(clap::Command::new("input"));
+    let id = arg.get_id().as_str();
+    if ["frame", "plane"].contains(&id) || inputs.get_arguments().any(|i| i.get_id() == id) {
+        arg.conflicts_with_all(THREE_D_ONLY)
+    } else {
+        arg
+    }
+}
+
+/// The views of `--view`, in the model's RAS world.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum View {
+    /// From the front, a little to the patient's right and above; superior up.
+    Oblique,
+    /// From the front (+A); superior up, the patient's right on the left.
+    Anterior,
+    /// From behind (−A); superior up.
+    Posterior,
+    /// From the patient's left (−R); superior up.
+    Left,
+    /// From the patient's right (+R); superior up.
+    Right,
+    /// From above (+S); anterior up, the patient's right on the right.
+    Superior,
+    /// From below (−S), as axial images are shown; anterior up, the patient's right on the left.
+    Inferior,
+}
+
+impl View {
+    fn camera(self) -> Camera {
+        const S: [f64; 3] = [0.0, 0.0, 1.0];
+        const A: [f64; 3] = [0.0, 1.0, 0.0];
+        let (from, up) = match self {
+            View::Oblique => return Camera::ANTERIOR_OBLIQUE,
+            View::Anterior => (A, S),
+            View::Posterior => ([0.0, -1.0, 0.0], S),
+            View::Left => ([-1.0, 0.0, 0.0], S),
+            View::Right => ([1.0, 0.0, 0.0], S),
+            View::Superior => (S, A),
+            View::Inferior => ([0.0, 0.0, -1.0], A),
+        };
+        Camera {
+            from,
+            up,
+            ..Camera::ANTERIOR_OBLIQUE
+        }
+    }
+}
+
+/// Runs `dynaslice picture --3d`: every class of the model meshed at each time (the mesh
+/// command's extraction) and rendered shaded, one panel per time, with a legend.
+fn run_3d(a: Args) -> Result<()> {
+    Plan::new([&a.model], true).file("-o", &a.output, Kind::Png)?;
+    let file = ModelFile::open(&a.model)?;
+    let model = file.model();
+    let times: Vec<f32> = match &a.times {
+        Some(t) if t.len() > render3d::MAX_PANELS => bail!(
+            "--times: at most {} times fit one 3D picture, {} given",
+            render3d::MAX_PANELS,
+            t.len()
+        ),
+        // The network takes f32 times.
+        Some(t) => t.iter().map(|&t| t as f32).collect(),
+        None if file.is_static() => vec![file.time("--times", None)?],
+        None => {
+            let (t0, t1) = model.domain().time_range();
+            let n = DEFAULT_3D_TIMES;
+            (0..n)
+                .map(|i| t0 + (t1 - t0) * i as f32 / (n - 1) as f32)
+                .collect()
+        }
+    };
+    // Every time is checked before any meshing: outside the range the network extrapolates.
+    for &t in &times {
+        file.check_time("--times", t)?;
+    }
+    // Names, labels and the input's colours where the model records them.
+    let classes = file.classes();
+    let channels: Vec<usize> = (0..model.num_classes()).collect();
+    let options = Options {
+        resolution: a.resolution,
+        ..Options::default()
+    };
+    let report = |line: String| eprintln!("{line}");
+    let meshes = times
+        .iter()
+        .map(|&t| Ok(surfaces_at(&model, t, &channels, &options, report)?.meshes))
+        .collect::<Result<Vec<_>>>()?;
+    let panels: Vec<SurfacePanel> = times
+        .iter()
+        .zip(&meshes)
+        .map(|(&t, meshes)| SurfacePanel {
+            time: f64::from(t),
+            meshes: meshes.iter().enumerate().collect(),
+        })
+        .collect();
+    let options = RenderOptions {
+        camera: a.view.camera(),
+        panel: a.size,
+        ..RenderOptions::default()
+    };
+    write_via(&a.output, |tmp| {
+        render3d::render_surfaces(tmp, &panels, &classes, &options)
+    })?;
+    eprintln!("wrote {}", a.output.display());
+    Ok(())
+}
+
+/// Runs `dynaslice picture`: with `--3d` the surfaces ([`run_3d`]); otherwise the labels on
+/// one input plane (by default the frame's plane with the longest contours) at the frame's
+/// time, with its contours, and at the extra times (by default midway to the next frame),
+/// written as one PNG.
 pub fn run(a: Args) -> Result<()> {
+    if a.three_d {
+        return run_3d(a);
+    }
     let inputs = [&a.model]
         .into_iter()
         .chain(&a.input.inputs)

@@ -10,14 +10,15 @@ use super::input::{self, InputArgs};
 use super::loss::LossArgs;
 use super::options::{
     count, f32_in, non_negative_f64_to, positive_f32, positive_f64_to, MAX_LR, MAX_MINUTES,
-    MAX_OMEGA_0, MAX_SAMPLES_PER_STEP, MAX_STEPS, MAX_TEMPORAL_FACTOR, MAX_THREADS, MAX_WEIGHT,
+    MAX_OMEGA_0, MAX_STEPS, MAX_TEMPORAL_FACTOR, MAX_THREADS, MAX_WEIGHT,
 };
 use super::output::{write_via, Kind, Plan};
+use super::samples::SampleArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::format::{MAX_SINE_LAYERS, MAX_WIDTH};
 use dynaslice_data::atomic::write_atomically;
 use dynaslice_figures::plot::{line_chart, Series};
-use dynaslice_train::data_sampler::{domain_for, DataSampler, SampleCounts};
+use dynaslice_train::data_sampler::{domain_for, DataSampler};
 use dynaslice_train::model_file::{check_model_limits, TrainedModel};
 use dynaslice_train::temporal_bound::{temporal_bound, DEFAULT_TEMPORAL_FACTOR};
 use dynaslice_train::trainer::{self, Outcome, Progress, TrainOptions};
@@ -47,11 +48,13 @@ pub struct Args {
     /// (.ckpt) are written beside it.
     #[arg(short, long, value_name = "MODEL.dsm")]
     output: PathBuf,
-    /// Optimisation steps (the learning-rate schedule spans them).
-    #[arg(long, default_value_t = TrainOptions::default().steps,
-          value_parser = count(1, MAX_STEPS))]
-    steps: u64,
-    /// Stop after this many minutes even if steps remain.
+    /// Optimisation steps (the learning-rate schedule spans them). Default: 3000, or with
+    /// --minutes as many as fit in the time (at most this many when given).
+    #[arg(long, value_parser = count(1, MAX_STEPS))]
+    steps: Option<u64>,
+    /// Train for this many minutes: the step time is measured on the first steps and the
+    /// learning-rate schedule planned to end, at its lowest rate, when the time is up (the
+    /// planned steps are recorded in the checkpoint and the model's metadata).
     #[arg(long, value_parser = positive_f64_to(MAX_MINUTES), allow_negative_numbers = true)]
     minutes: Option<f64>,
     /// Seed of initialisation and sampling.
@@ -113,18 +116,8 @@ pub struct Args {
     warmup_steps: u64,
     #[command(flatten)]
     loss: LossArgs,
-    /// Contour points per class per step.
-    #[arg(long, default_value_t = SampleCounts::default().contour_per_class,
-          value_parser = count(1, MAX_SAMPLES_PER_STEP))]
-    contour_samples: usize,
-    /// Plane samples per class per step.
-    #[arg(long, default_value_t = SampleCounts::default().plane_per_class,
-          value_parser = count(1, MAX_SAMPLES_PER_STEP))]
-    plane_samples: usize,
-    /// Space-time samples per step.
-    #[arg(long, default_value_t = SampleCounts::default().space,
-          value_parser = count(1, MAX_SAMPLES_PER_STEP))]
-    space_samples: usize,
+    #[command(flatten)]
+    samples: SampleArgs,
     /// Per-class weights of the contour and plane terms, one per class in class order (e.g.
     /// 1,1,4 to favour a small third structure); default all 1.
     #[arg(long, value_delimiter = ',', value_name = "W1,W2,…",
@@ -242,7 +235,12 @@ pub fn run(a: Args) -> Result<()> {
     let omega_t_max = temporal_bound(&seq, &domain, a.temporal_factor, !a.no_temporal_control);
     let options = TrainOptions {
         widths: a.widths.clone(),
-        steps: a.steps,
+        steps: match (a.steps, a.minutes) {
+            (Some(steps), _) => steps,
+            // The plan sets the schedule's length; the cap only bounds it.
+            (None, Some(_)) => MAX_STEPS,
+            (None, None) => TrainOptions::default().steps,
+        },
         // Both in range of `Duration` by their value parsers.
         time_limit: a.minutes.map(|m| Duration::from_secs_f64(m * 60.0)),
         omega_0: a.omega0,
@@ -258,11 +256,7 @@ pub fn run(a: Args) -> Result<()> {
         checkpoint_every: Duration::from_secs_f64(a.checkpoint_minutes * 60.0),
         resume: a.resume,
     };
-    let counts = SampleCounts {
-        contour_per_class: a.contour_samples,
-        plane_per_class: a.plane_samples,
-        space: a.space_samples,
-    };
+    let counts = a.samples.counts();
     let k = seq.classes().len();
     eprintln!(
         "{}: {} classes, {} frames, {} planes; domain centre {:?}, half-width {:.4}, time {}..{}; ω_t^max {}",
@@ -294,7 +288,7 @@ pub fn run(a: Args) -> Result<()> {
             "interrupted at step {} of {}: checkpoint {} saved, no model written; continue \
              with\n  {}",
             outcome.steps_done,
-            a.steps,
+            outcome.planned_steps.unwrap_or(options.steps),
             files.checkpoint.display(),
             resume_command()
         );
@@ -496,6 +490,8 @@ fn run_with_progress(
         }
         match &bar {
             Some(bar) => {
+                // A timed run's length is known once planned.
+                bar.set_length(p.steps);
                 bar.set_position(p.step);
                 bar.set_message(report(p));
             }

@@ -5,7 +5,7 @@ use dynaslice_data::nifti::read_volume;
 use std::process::Command;
 
 #[test]
-fn demo_writes_model_meshes_series_labels_and_figure() {
+fn demo_writes_model_meshes_series_labels_and_figures() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("demo");
     let run = Command::new(env!("CARGO_BIN_EXE_dynaslice"))
@@ -34,6 +34,7 @@ fn demo_writes_model_meshes_series_labels_and_figure() {
         "$ dynaslice eval volume",
         "$ dynaslice eval synthetic",
         "$ dynaslice picture",
+        "$ dynaslice picture --3d",
     ] {
         assert!(log.contains(line), "the demo echoes {line:?}");
     }
@@ -65,7 +66,16 @@ fn demo_writes_model_meshes_series_labels_and_figure() {
     }
     let metrics = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
     assert_eq!(metrics.lines().count(), 38);
-    for png in ["figure.png", "model.dsm.loss.png", "volumes.png"] {
+    assert!(
+        log.contains(&format!("wrote {}", out.join("surfaces.png").display())),
+        "the demo prints where the 3D picture went"
+    );
+    for png in [
+        "figure.png",
+        "surfaces.png",
+        "model.dsm.loss.png",
+        "volumes.png",
+    ] {
         assert_eq!(
             &std::fs::read(out.join(png)).unwrap()[1..4],
             b"PNG",

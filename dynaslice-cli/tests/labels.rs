@@ -1,9 +1,12 @@
 //! `dynaslice labels` end to end on a hand-built model of two spheres (closed-form labels):
-//! a box grid, the grid of a reference image (oblique, 4D; and a real one from ../shared), and
-//! the command's errors.
+//! a box grid, the grid of a reference image (oblique, 4D; and a real one from ../shared), the
+//! colour tables and the 3D Slicer sequence beside the volume, --dense against the pruned
+//! default, and the command's errors.
 
-use dynaslice_core::ModelBytes;
+use dynaslice_core::format::ModelWriter;
+use dynaslice_core::{Model, ModelBytes};
 use dynaslice_data::nifti::{read_volume, write_volume, LabelVolume};
+use dynaslice_data::palette::palette;
 use dynaslice_test_support::fixtures::shared_data;
 use dynaslice_test_support::spheres::{self, Sphere};
 use std::path::Path;
@@ -169,6 +172,271 @@ print(" ".join(f"{float(v):.3f}" for v in seg["ijkToLPS"][:3, 3]))
         // Voxel (0,0,0) at RAS (-9, -24, -17) is LPS (9, 24, -17).
         assert_eq!(lines[1], "9.000 24.000 -17.000", "{text}");
     }
+    // The per-frame files, like the volume, are replaced only with --force.
+    let o = dynaslice(&args(&out).iter().map(String::as_str).collect::<Vec<_>>());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && stderr.contains("labels_t0.seg.nrrd: the file exists"),
+        "{stderr}"
+    );
+    let mut forced = args(&out);
+    forced.push("--force".into());
+    run(forced);
+
+    // The frames as one 3D Slicer sequence: read with pynrrd (the NRRD library of Slicer's
+    // Python users), a 4D volume whose list axis is the frames, with Slicer's sequence keys;
+    // each frame's voxels are the NIfTI volume's.
+    let sequence = dir.path().join("labels.seq.nrrd");
+    let script = r#"
+import sys, nrrd, numpy as np
+data, h = nrrd.read(sys.argv[1])
+print(data.shape, data.dtype)
+print(h["kinds"], h["labels"])
+print(h["DataNodeClassName"], h["axis 3 index type"], h["axis 3 index values"])
+print(h["Segment0_Name"], h["Segment0_LabelValue"], h["Segment1_Name"], h["Segment1_LabelValue"])
+for f in range(data.shape[3]):
+    print(" ".join(str(int(v)) for v in data[:, :, :, f].ravel(order="F")))
+"#;
+    if let Some(text) =
+        dynaslice_test_support::python::run_python(&["nrrd", "numpy"], script, &[&sequence])
+    {
+        let lines: Vec<&str> = text.lines().collect();
+        let [nx, ny, nz] = reference.dims;
+        assert_eq!(lines[0], format!("({nx}, {ny}, {nz}, 2) uint8"), "{text}");
+        assert_eq!(
+            lines[1],
+            "['domain', 'domain', 'domain', 'list'] ['', '', '', 'time']"
+        );
+        assert_eq!(lines[2], "vtkMRMLLabelMapVolumeNode numeric 0 2");
+        assert_eq!(lines[3], "ball 3 small ball 12");
+        for f in 0..2 {
+            let want: Vec<String> = reference.labels[f * voxels..(f + 1) * voxels]
+                .iter()
+                .map(i32::to_string)
+                .collect();
+            assert_eq!(lines[4 + f], want.join(" "), "frame {f}");
+        }
+    }
+    // Our own reader takes the sequence's list axis as frames at its times, so the sequence
+    // trains like the NIfTI volume.
+    let (seq_volume, seq_table) = dynaslice_data::nrrd::read_volume(&sequence).unwrap();
+    assert_eq!(
+        (
+            seq_volume.dims,
+            seq_volume.frames,
+            seq_volume.frame_interval
+        ),
+        (reference.dims, 2, 2.0)
+    );
+    assert_eq!(seq_volume.labels, reference.labels);
+    assert_eq!(seq_table.name(12), "small ball");
+}
+
+/// A model of the two spheres whose file records colours for some classes, as a model trained
+/// on an input with colours does (`class_colors` in its metadata).
+fn write_coloured_model(dir: &Path, colors: &str) -> String {
+    let bytes = spheres::model(&SPHERES, &[("ball", 3), ("small ball", 12)]);
+    let mut writer = ModelWriter::from_model(&Model::from_bytes(&bytes).unwrap());
+    writer.metadata = format!("trainer = test\nclass_colors = {colors}\n");
+    let path = dir.join("coloured.dsm");
+    std::fs::write(&path, writer.to_bytes()).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// Beside a NIfTI volume, the 3D Slicer and ITK-SNAP colour tables, parsed back: every class
+/// under its label with its name (Slicer's without spaces) and the colour the model records
+/// (or the palette's), and the background first.
+#[test]
+fn colour_tables_beside_a_nifti_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_coloured_model(dir.path(), "3:#e6194b");
+    let out = dir.path().join("heart.nii.gz");
+    let args = [
+        "labels",
+        &model,
+        "--spacing",
+        "4",
+        "--times",
+        "0:1:2",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    let o = dynaslice(&args);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    for want in [
+        "heart.ctbl (3D Slicer colour table)",
+        "heart.label.txt (ITK-SNAP",
+    ] {
+        assert!(stderr.contains(want), "{want}: {stderr}");
+    }
+    let small = palette(1);
+    assert!(stderr.contains("label 3 \"ball\" #e6194b:"), "{stderr}");
+    let hex = format!("#{:02x}{:02x}{:02x}", small[0], small[1], small[2]);
+    assert!(
+        stderr.contains(&format!("label 12 \"small ball\" {hex}:")),
+        "{stderr}"
+    );
+    let want = [
+        (0, "Background", [0, 0, 0], 0),
+        (3, "ball", [0xe6, 0x19, 0x4b], 255),
+        (12, "small_ball", small, 255),
+    ];
+
+    // Slicer: `label name R G B A` after `#` comments.
+    let ctbl = std::fs::read_to_string(dir.path().join("heart.ctbl")).unwrap();
+    let rows: Vec<(i32, String, [u8; 3], u8)> = ctbl
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            assert_eq!(f.len(), 6, "{l}");
+            let n = |i: usize| f[i].parse::<u8>().unwrap();
+            (
+                f[0].parse().unwrap(),
+                f[1].to_string(),
+                [n(2), n(3), n(4)],
+                n(5),
+            )
+        })
+        .collect();
+    let want_ctbl: Vec<(i32, String, [u8; 3], u8)> = want
+        .iter()
+        .map(|&(l, n, c, a)| (l, n.to_string(), c, a))
+        .collect();
+    assert_eq!(rows, want_ctbl, "{ctbl}");
+
+    // ITK-SNAP: `IDX R G B A VIS MSH "LABEL"`, "Clear Label" for the background.
+    let itk = std::fs::read_to_string(dir.path().join("heart.label.txt")).unwrap();
+    assert!(itk.contains("# ITK-SnAP Label Description File"), "{itk}");
+    let rows: Vec<(i32, String, [u8; 3], String)> = itk
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let (numbers, name) = l.split_once('"').unwrap();
+            let f: Vec<&str> = numbers.split_whitespace().collect();
+            assert_eq!(f.len(), 7, "{l}");
+            let n = |i: usize| f[i].parse::<u8>().unwrap();
+            let flags = f[4..].join(" ");
+            let name = name.strip_suffix('"').unwrap().to_string();
+            (f[0].parse().unwrap(), name, [n(1), n(2), n(3)], flags)
+        })
+        .collect();
+    assert_eq!(
+        rows,
+        [
+            (0, "Clear Label".to_string(), [0, 0, 0], "0 0 0".to_string()),
+            (3, "ball".into(), [0xe6, 0x19, 0x4b], "1 1 1".into()),
+            (12, "small ball".into(), small, "1 1 1".into()),
+        ],
+        "{itk}"
+    );
+
+    // The tables, like the volume, are replaced only with --force.
+    std::fs::remove_file(&out).unwrap();
+    let o = dynaslice(&args);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && stderr.contains("heart.ctbl: the file exists"),
+        "{stderr}"
+    );
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    assert!(dynaslice(&forced).status.success());
+}
+
+/// The pruned evaluation (the default) writes the same volume as --dense; --safety is
+/// validated.
+#[test]
+fn dense_and_pruned_write_identical_volumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_model(dir.path());
+    let mut volumes = Vec::new();
+    for (name, extra) in [
+        ("pruned.nii", &[][..]),
+        ("dense.nii", &["--dense"][..]),
+        ("safe.nii", &["--safety", "3"][..]),
+    ] {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "labels",
+            &model,
+            "--bounds=-10,-25,-18,30,15,22",
+            "--spacing",
+            "0.5",
+            "--times",
+            "0:2:2",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = dynaslice(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        volumes.push(read_volume(&out).unwrap());
+    }
+    assert_eq!(volumes[0].labels.len(), 80 * 80 * 80 * 2);
+    assert!(volumes[0].labels.contains(&3) && volumes[0].labels.contains(&12));
+    assert_eq!(volumes[0], volumes[1]);
+    assert_eq!(volumes[0], volumes[2]);
+    let out = dir.path().join("x.nii");
+    for (extra, want) in [
+        (&["--safety", "0.5"][..], "--safety"),
+        (&["--safety", "nan"][..], "--safety"),
+        (&["--dense", "--safety", "2"][..], "cannot be used with"),
+    ] {
+        let mut args = vec!["labels", &model, "-o", out.to_str().unwrap()];
+        args.extend(extra);
+        let o = dynaslice(&args);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && stderr.contains(want),
+            "{extra:?}: {stderr}"
+        );
+    }
+}
+
+/// A reference whose header declares a grid far beyond memory (65535³ voxels in a 352-byte
+/// file): only its header is read, so the memory check refuses it at once, rather than the
+/// file being read whole (or refused for its size) first.
+#[cfg(target_os = "linux")]
+#[test]
+fn like_checks_memory_from_the_header_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_model(dir.path());
+    let mut header = vec![0u8; 352];
+    let mut put = |at: usize, bytes: &[u8]| header[at..at + bytes.len()].copy_from_slice(bytes);
+    put(0, &348i32.to_le_bytes());
+    for (i, d) in [3u16, 65535, 65535, 65535, 1, 1, 1, 1].iter().enumerate() {
+        put(40 + 2 * i, &d.to_le_bytes());
+    }
+    put(70, &4i16.to_le_bytes()); // int16
+    put(72, &16i16.to_le_bytes());
+    for (i, p) in [1f32, 1.0, 1.0, 1.0, 0.0].iter().enumerate() {
+        put(76 + 4 * i, &p.to_le_bytes());
+    }
+    put(108, &352f32.to_le_bytes());
+    put(344, b"n+1\0");
+    let reference = dir.path().join("huge.nii");
+    std::fs::write(&reference, &header).unwrap();
+    let out = dir.path().join("out.nii.gz");
+    let start = std::time::Instant::now();
+    let o = dynaslice(&[
+        "labels",
+        &model,
+        "--like",
+        reference.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && stderr.contains("65535×65535×65535 voxels needs about")
+            && stderr.contains("--allow-memory"),
+        "{stderr}"
+    );
+    assert!(start.elapsed().as_secs() < 30, "{:?}", start.elapsed());
+    assert!(!out.exists());
 }
 
 #[test]

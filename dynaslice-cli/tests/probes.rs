@@ -165,6 +165,33 @@ fn every_probe_ends_with_a_clear_error_and_changes_no_file() {
         (train("--init-offset 1e30"), vec!["--init-offset"]),
         (train("--threads 100000"), vec!["--threads", "1024"]),
         (train("--threads 0"), vec!["--threads"]),
+        // Negative numbers reach the value parser (not clap's "unexpected argument '-1'"),
+        // whole-number options, real ones, nested subcommands and positional values alike.
+        (
+            train("--threads -1"),
+            vec![
+                "'-1' for '--threads",
+                "out of range",
+                "a whole number from 1 to 1024",
+            ],
+        ),
+        (
+            train("--contour-samples -5"),
+            vec!["'-5' for '--contour-samples", "out of range"],
+        ),
+        (
+            train("--lr -1"),
+            vec!["'-1' for '--lr", "out of range", "> 0"],
+        ),
+        (
+            "mesh m.dsm --time 0 --threads -2 -o a.ply".into(),
+            vec!["'-2' for '--threads", "from 1 to 1024"],
+        ),
+        (
+            "eval synthetic m.dsm --shape blob --samples -4".into(),
+            vec!["'-4' for '--samples", "out of range"],
+        ),
+        ("query m.dsm -1e39 0 0 0".into(), vec!["<X>", "32-bit"]),
         (train("--steps 0"), vec!["--steps"]),
         (train("--contour-samples 0"), vec!["--contour-samples"]),
         (train("--plane-samples 0"), vec!["--plane-samples"]),
@@ -341,7 +368,7 @@ fn every_probe_ends_with_a_clear_error_and_changes_no_file() {
     }
     // Refused by the memory estimate where no machine has that much (each names the figure).
     let memory_probes = [
-        // 25000³ voxels × 10 bytes: 156 TB.
+        // 25000³ voxels × 12 bytes: 188 TB.
         ("labels m.dsm -o l.nii.gz --spacing 0.004", 1.5e14),
         // 2049³ vertices × (2·4 + 48) bytes: 482 GB.
         (

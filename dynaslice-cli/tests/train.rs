@@ -220,3 +220,38 @@ fn interrupt_refusal_and_resumed_loss_log() {
     assert_eq!(steps, (1..=1500).collect::<Vec<u64>>());
     assert!(dir.path().join("r.dsm.loss.png").exists());
 }
+
+/// `--minutes` without `--steps` plans the schedule to the time, not to the default 3000 steps,
+/// and records the plan in the model's metadata.
+#[test]
+fn a_timed_run_plans_past_the_default_step_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write_sequence(dir.path());
+    let model = dir.path().join("timed.dsm");
+    let out = train_command(&input, &model, &["--minutes", "0.2"])
+        .output()
+        .unwrap();
+    succeeded(&out);
+    let bytes = ModelBytes::read(&model).unwrap();
+    let metadata = bytes.model().unwrap().metadata().to_string();
+    let value = |key: &str| -> u64 {
+        let line = metadata
+            .lines()
+            .find_map(|l| l.strip_prefix(&format!("{key} = ")))
+            .unwrap_or_else(|| panic!("no {key} in\n{metadata}"));
+        line.parse().unwrap()
+    };
+    let (planned, done) = (value("planned_steps"), value("steps_done"));
+    assert!(done <= planned, "{done} steps of a {planned}-step plan");
+    // Capped at the default 3000, a run this fast would stop at 3000 with a 3000-step plan.
+    assert!(
+        done > 3000 || planned < 3000,
+        "planned {planned}, done {done}: the plan was capped at the default --steps"
+    );
+    let csv = std::fs::read_to_string(dir.path().join("timed.dsm.loss.csv")).unwrap();
+    assert_eq!(
+        csv.lines().count() as u64,
+        done + 1,
+        "header + one line per step"
+    );
+}

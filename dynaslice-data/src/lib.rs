@@ -19,6 +19,7 @@
 #![warn(missing_docs)]
 
 pub mod atomic;
+pub mod color_table;
 pub mod combine;
 pub mod csl;
 pub mod drawn_slices;
@@ -32,6 +33,7 @@ pub mod native;
 pub mod nifti;
 pub mod nifti_stream;
 pub mod nrrd;
+pub mod palette;
 pub mod reslice;
 pub mod rtstruct;
 pub mod sequence;

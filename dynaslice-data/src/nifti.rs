@@ -49,6 +49,16 @@ impl LabelVolume {
         self.affine
             .map(|r| r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + r[3])
     }
+
+    /// The volume's grid, as [`read_geometry`] reads it from a file's header.
+    pub fn geometry(&self) -> Geometry {
+        Geometry {
+            dims: self.dims,
+            frames: self.frames,
+            affine: self.affine,
+            frame_interval: self.frame_interval,
+        }
+    }
 }
 
 /// Bytes of a NIfTI-1 header (read here, written by [`crate::nifti_stream`]); the voxel data
@@ -140,6 +150,57 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
         affine,
         frame_interval: if dt == 0.0 { 1.0 } else { dt },
         labels,
+    })
+}
+
+/// A NIfTI file's grid: what [`read_geometry`] reads from the header alone.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Geometry {
+    /// Voxels per axis (x, y, z).
+    pub dims: [usize; 3],
+    /// Number of frames (1 for a 3D file).
+    pub frames: usize,
+    /// Voxel index → world, as [`LabelVolume::affine`].
+    pub affine: [[f64; 4]; 3],
+    /// Time between frames (`pixdim[4]`, 0 read as 1).
+    pub frame_interval: f64,
+}
+
+/// Reads the grid of the NIfTI-1 file at `path` from its 348-byte header only (decompressing
+/// no more of a `.gz` than that), whatever its voxel type: the geometry of a reference image
+/// whose voxels are not needed, known before anything is allocated for its size. The
+/// dimensions, transform and frame interval are checked as [`read_volume`] checks them; the
+/// voxel data is not.
+pub fn read_geometry(path: &Path) -> Result<Geometry> {
+    let at = |kind: ErrorKind| DataError::new(kind).in_file(path);
+    let file = std::fs::File::open(path).map_err(|e| at(e.into()))?;
+    let mut file = std::io::BufReader::new(file);
+    let gz = std::io::BufRead::fill_buf(&mut file)
+        .map_err(|e| at(e.into()))?
+        .starts_with(&[0x1f, 0x8b]);
+    let mut source: Box<dyn Read> = if gz {
+        Box::new(flate2::read::GzDecoder::new(file))
+    } else {
+        Box::new(file)
+    };
+    let header = NiftiHeader::from_reader(&mut source).map_err(|e| {
+        at(ErrorKind::Nifti(format!(
+            "unreadable or truncated header: {e}"
+        )))
+    })?;
+    let (dims, frames) = dimensions(&header).map_err(at)?;
+    let affine = affine(&header).map_err(at)?;
+    let dt = f64::from(header.pixdim[4]);
+    if !dt.is_finite() || dt < 0.0 {
+        return Err(at(ErrorKind::Nifti(format!(
+            "pixdim[4] (time between frames) is {dt}"
+        ))));
+    }
+    Ok(Geometry {
+        dims,
+        frames,
+        affine,
+        frame_interval: if dt == 0.0 { 1.0 } else { dt },
     })
 }
 

@@ -53,12 +53,15 @@
 //! # Bad input: errors and skips
 //! Errors ([`ErrorKind::Dicom`], naming the file, and where they concern one the ROI as class and
 //! its contour item, counted from 1 in its ContourSequence):
-//! - not a readable DICOM file (Part 10, with or without preamble), a transfer syntax dicom-rs
-//!   cannot decode without extra features (deflated), Modality (0008,0060) other than
-//!   `RTSTRUCT`, no StructureSetROISequence or ROIContourSequence;
-//! - a file over [`MAX_FILE_BYTES`], an element declaring more bytes than the file has (checked
-//!   from the headers before any value is read), more than [`MAX_CONTOURS`] contours,
-//!   [`MAX_ORIENTATIONS`] plane orientations or [`MAX_ANNOTATIONS`] plane × ROI annotations;
+//! - not a readable DICOM file (Part 10, with or without preamble; the file meta group ends
+//!   where group 0002 does), an unknown transfer syntax or one whose data set is compressed
+//!   (deflated), Modality (0008,0060) other than `RTSTRUCT`, no StructureSetROISequence or
+//!   ROIContourSequence;
+//! - a file over [`MAX_FILE_BYTES`], an element or item declaring more bytes than are left in
+//!   the file (refused where the parser decodes its header, so no value ever takes more memory
+//!   than the file's size), sequences nested more than [`MAX_NESTING`] deep, more than
+//!   [`MAX_CONTOURS`] contours, [`MAX_ORIENTATIONS`] plane orientations or [`MAX_ANNOTATIONS`]
+//!   plane × ROI annotations;
 //! - a missing or repeated ROI Number, a ROIContourSequence item naming an undefined ROI or one
 //!   already given;
 //! - an `OPEN_PLANAR` or `OPEN_NONPLANAR` contour (a curve bounds no region), a missing or
@@ -80,25 +83,29 @@
 
 use std::collections::{BTreeMap, HashSet};
 use std::fs::File;
-use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::io::Read;
 use std::path::Path;
 
 use dicom_dictionary_std::tags;
-use dicom_object::{FileMetaTable, InMemDicomObject, OpenFileOptions, Tag};
-use dicom_parser::dataset::lazy_read::LazyDataSetReader;
-use dicom_parser::dataset::LazyDataToken;
-use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
+use dicom_object::{InMemDicomObject, Tag};
 
 use super::error::{DataError, ErrorKind, Result};
 use super::reslice::{normalize, plane_axes};
 use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 use crate::geometry::{Point2, Polygon};
 
+mod bounded;
+
 /// Files larger than this (256 MiB) are refused before parsing. Clinical structure sets are
 /// tens of megabytes; reading takes about ten times the file size in memory (the parsed decimal
-/// strings; measured 160 MB for a 17 MB file). Element lengths beyond the file's size are refused
-/// from the headers, before any value is read.
+/// strings; measured 160 MB for a 17 MB file). An element or item declaring more bytes than the
+/// file has left is refused as its header is decoded, before any of its value is read.
 pub const MAX_FILE_BYTES: u64 = 256 << 20;
+
+/// Most sequences nested in one another (an RT Structure Set nests four: Referenced Frame of
+/// Reference, RT Referenced Study, RT Referenced Series, Contour Image). Bounds the parser's
+/// recursion, so that no file can overflow the stack.
+pub const MAX_NESTING: usize = 32;
 
 /// Most contours (of all ROIs, `POINT` ones included) a file may hold.
 pub const MAX_CONTOURS: usize = 1_000_000;
@@ -211,21 +218,25 @@ pub fn read(path: &Path, extent: RoiExtent) -> Result<Sequence> {
         ))
         .in_file(path));
     }
-    in_dicom_rs(|| check_lengths(path, size)).map_err(|e| e.in_file(path))?;
-    let obj = in_dicom_rs(|| {
-        OpenFileOptions::new()
-            .read_until(tags::PIXEL_DATA)
-            .open_file(path)
-            .map_err(|e| dicom(format!("not a readable DICOM file: {}", chain(&e))))
-    })
-    .map_err(|e| e.in_file(path))?;
+    // Read whole (the size is capped), so that the parse can see how many bytes are left.
+    let mut bytes = Vec::with_capacity(size as usize);
+    File::open(path)
+        .and_then(|f| f.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(|e| DataError::new(e.into()).in_file(path))?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(dicom(format!(
+            "the file has over {MAX_FILE_BYTES} bytes, the limit for an RT Structure Set"
+        ))
+        .in_file(path));
+    }
+    let obj = in_dicom_rs(|| bounded::read_object(&bytes)).map_err(|e| e.in_file(path))?;
     let rois = parse_rois(&obj, path).map_err(|e| e.in_file(path))?;
     build(rois, extent, path).map_err(|e| e.in_file(path))
 }
 
-/// Runs `f`, which calls dicom-rs's parsers: they assert some structural invariants of the file
-/// with panics (dicom-parser 0.10's lazy reader on an item header outside any sequence), which
-/// become an error here, so that no input makes the reader panic.
+/// Runs `f`, which calls dicom-rs's parsers: parts of dicom-rs assert structural invariants of
+/// the file with panics (dicom-parser 0.10's lazy reader did on an item header outside any
+/// sequence); any such panic becomes an error here, so that no input makes the reader panic.
 fn in_dicom_rs<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|panic| {
         let what = panic
@@ -237,97 +248,6 @@ fn in_dicom_rs<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
             "not a readable DICOM file: the DICOM parser stopped on {what}"
         )))
     })
-}
-
-/// Walks the file meta group's element headers (always explicit VR little endian), refusing a
-/// declared length larger than the whole file: dicom-object allocates a declared length before
-/// reading it, so a 1 kB file declaring 3 GB would otherwise take 3 GB.
-fn check_meta_lengths(file: &mut BufReader<File>, size: u64) -> Result<()> {
-    // VRs with a u16 length (PS3.5 Table 7.1-2); every other VR (OB, OW, SQ, UN, …, and an
-    // unknown one) has a reserved u16 and a u32 length.
-    const SHORT: [&[u8; 2]; 21] = [
-        b"AE", b"AS", b"AT", b"CS", b"DA", b"DS", b"DT", b"FL", b"FD", b"IS", b"LO", b"LT", b"PN",
-        b"SH", b"SL", b"SS", b"ST", b"TM", b"UI", b"UL", b"US",
-    ];
-    let io = |e: std::io::Error| DataError::new(e.into());
-    loop {
-        let mut header = [0u8; 8];
-        match file.read_exact(&mut header) {
-            Ok(()) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => return Ok(()),
-            Err(e) => return Err(io(e)),
-        }
-        let group = u16::from_le_bytes([header[0], header[1]]);
-        if group != 0x0002 {
-            return Ok(());
-        }
-        let vr = [header[4], header[5]];
-        let len = if SHORT.iter().any(|v| **v == vr) {
-            u64::from(u16::from_le_bytes([header[6], header[7]]))
-        } else {
-            let mut long = [0u8; 4];
-            file.read_exact(&mut long).map_err(io)?;
-            u64::from(u32::from_le_bytes(long))
-        };
-        if len > size {
-            let element = u16::from_le_bytes([header[2], header[3]]);
-            return Err(dicom(format!(
-                "file meta element (0002,{element:04X}) declares {len} bytes, more than the whole \
-                 file ({size} bytes)"
-            )));
-        }
-        file.seek_relative(len as i64).map_err(io)?;
-    }
-}
-
-/// Walks the element headers without reading values and refuses any declared length beyond the
-/// file's size: dicom-rs allocates (and zero-fills) a value's declared length before reading it,
-/// so a small corrupted file declaring a 4 GiB element would otherwise take gigabytes.
-fn check_lengths(path: &Path, size: u64) -> Result<()> {
-    let unreadable = |what: String| dicom(format!("not a readable DICOM file: {what}"));
-    let mut file = BufReader::new(File::open(path).map_err(|e| DataError::new(e.into()))?);
-    let mut head = [0u8; 132];
-    let got = file.read(&mut head).map_err(|e| DataError::new(e.into()))?;
-    // With or without the 128-byte preamble; anything else is left to the parser's own error.
-    let start = match (&head[..got.min(4)], head.get(128..132)) {
-        (_, Some(b"DICM")) if got == 132 => 128,
-        (b"DICM", _) => 0,
-        _ => return Ok(()),
-    };
-    file.seek(SeekFrom::Start(start + 4))
-        .map_err(|e| DataError::new(e.into()))?;
-    check_meta_lengths(&mut file, size)?;
-    file.seek(SeekFrom::Start(start))
-        .map_err(|e| DataError::new(e.into()))?;
-    let meta = FileMetaTable::from_reader(&mut file)
-        .map_err(|e| unreadable(format!("file meta group: {}", chain(&e))))?;
-    let uid = meta.transfer_syntax().trim_end_matches(['\0', ' ']);
-    let ts = TransferSyntaxRegistry
-        .get(uid)
-        .filter(|ts| ts.can_decode_dataset())
-        .ok_or_else(|| dicom(format!("unsupported transfer syntax {uid}")))?;
-    let mut reader = LazyDataSetReader::new_with_ts(file, ts).map_err(|e| unreadable(chain(&e)))?;
-    let too_long = |tag: Option<Tag>, len: u32| {
-        dicom(format!(
-            "element {} declares {len} bytes, more than the whole file ({size} bytes)",
-            tag.map_or("item".to_string(), |t| format!("({:04X},{:04X})", t.0, t.1))
-        ))
-    };
-    while let Some(token) = reader.advance() {
-        let token = token.map_err(|e| unreadable(chain(&e)))?;
-        let (tag, len) = match &token {
-            LazyDataToken::LazyValue { header, .. } => (Some(header.tag), header.len.get()),
-            LazyDataToken::SequenceStart { tag, len } => (Some(*tag), len.get()),
-            LazyDataToken::ItemStart { len } => (None, len.get()),
-            LazyDataToken::LazyItemValue { len, .. } => (None, Some(*len)),
-            _ => (None, None),
-        };
-        if let Some(len) = len.filter(|&l| u64::from(l) > size) {
-            return Err(too_long(tag, len));
-        }
-        token.skip().map_err(|e| unreadable(chain(&e)))?;
-    }
-    Ok(())
 }
 
 /// An error and its sources, `: `-separated (dicom-rs puts the useful part in the sources).

@@ -709,6 +709,24 @@ fn malformed_inputs_are_named_errors() {
             "axis 3 is not spatial and its kind is not given",
         ),
         (
+            "uneven.seq.nrrd",
+            head("uint8", "2 4 2 4", "raw")
+                .replace("dimension: 3", "dimension: 4")
+                .replace("(0,0,3)", "(0,0,3) none")
+                + "\nkinds: domain domain domain list\naxis 3 index values:=0 1 2 4",
+            u8_64.clone(),
+            "frame times [0.0, 1.0, 2.0, 4.0] are not increasing and evenly spaced",
+        ),
+        (
+            "short.seq.nrrd",
+            head("uint8", "2 4 2 4", "raw")
+                .replace("dimension: 3", "dimension: 4")
+                .replace("(0,0,3)", "(0,0,3) none")
+                + "\nkinds: domain domain domain list\naxis 3 index values:=0 1",
+            u8_64.clone(),
+            "2 times for the 4 frames of axis 3",
+        ),
+        (
             "no_kinds_4d.nrrd",
             "type: uint8\ndimension: 4\nsizes: 4 4 2 2\nencoding: raw".into(),
             u8_64.clone(),

@@ -574,8 +574,8 @@ fn files_over_the_size_cap_are_refused_before_parsing() {
     assert!(msg.contains("over the"), "{msg}");
 }
 
-/// A ContourData element rewritten to declare 2 GiB (as VR UN, 4-byte length): refused from the
-/// headers alone, before dicom-rs would allocate the declared length.
+/// A ContourData element rewritten to declare 2 GiB (as VR UN, 4-byte length): refused as its
+/// header is decoded, before dicom-rs would allocate the declared length.
 #[test]
 fn declared_lengths_beyond_the_file_are_refused_before_allocating() {
     let dir = tempfile::tempdir().unwrap();
@@ -594,7 +594,8 @@ fn declared_lengths_beyond_the_file_are_refused_before_allocating() {
     let msg = read(&bad, RoiExtent::File).unwrap_err().to_string();
     assert!(msg.starts_with(&bad.display().to_string()), "{msg}");
     assert!(
-        msg.contains("element (3006,0050) declares 2147483632 bytes, more than the whole file"),
+        msg.contains("element (3006,0050) declares 2147483632 bytes at byte ")
+            && msg.contains("bytes left in the file"),
         "{msg}"
     );
 }

@@ -1,8 +1,9 @@
 //! Shaded 3D pictures of class surfaces, one panel per time, drawn by a software z-buffer
 //! rasteriser (no GPU or GL needed, so it runs on any machine and in CI).
 //!
-//! Every panel uses the same camera and framing (the bounding sphere of all meshes in all
-//! panels), so motion between times shows as motion in the picture. Shading is Lambert under a
+//! Every panel uses the same camera and framing (all meshes of all panels fit: their extent
+//! on screen for the orthographic camera, their bounding sphere for the perspective one), so
+//! motion between times shows as motion in the picture. Shading is Lambert under a
 //! light at the camera plus a little ambient light, interpolated per pixel from the vertex
 //! normals (computed from the triangles when a mesh has none); both faces of a triangle are
 //! lit, so open surfaces read too. Colours are [`class_color`]'s, as in every other figure.
@@ -26,6 +27,9 @@ const AMBIENT: f32 = 0.2;
 const HALF_FOV: f64 = 15.0 * std::f64::consts::PI / 180.0;
 /// Room left around the bounding sphere (fraction of its radius).
 const PADDING: f64 = 1.05;
+/// Room left around the scene's screen extent (fraction of its half-width), so that the axis
+/// triad in a corner rarely covers a surface.
+const FIT_PADDING: f64 = 1.15;
 /// Layout: outer margin and the title row above each panel.
 const MARGIN: u32 = 10;
 const TITLE: u32 = 30;
@@ -152,6 +156,35 @@ impl View {
             distance,
             size,
         })
+    }
+
+    /// Orthographic views: recentres and rescales so that the screen extent of every vertex of
+    /// `panels` fills the panel (less [`FIT_PADDING`]); the bounding sphere alone leaves wide
+    /// margins around flat or elongated scenes. A perspective view keeps the sphere's framing.
+    fn fit(&mut self, panels: &[SurfacePanel]) {
+        if self.perspective {
+            return;
+        }
+        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+        for p in panels
+            .iter()
+            .flat_map(|p| &p.meshes)
+            .flat_map(|m| &m.1.positions)
+        {
+            let q: V3 = std::array::from_fn(|k| f64::from(p[k]) - self.centre[k]);
+            for (k, axis) in [self.right, self.up].into_iter().enumerate() {
+                lo[k] = lo[k].min(dot(q, axis));
+                hi[k] = hi[k].max(dot(q, axis));
+            }
+        }
+        let half_extent = 0.5 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
+        // No vertex, or a single point: keep the sphere's framing.
+        if !(half_extent > 1e-9 && half_extent.is_finite()) {
+            return;
+        }
+        let (x, y) = (0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]));
+        self.centre = std::array::from_fn(|k| self.centre[k] + x * self.right[k] + y * self.up[k]);
+        self.scale = f64::from(self.size) / 2.0 / (half_extent * FIT_PADDING);
     }
 
     /// Screen position (pixels, y down) and depth (larger = farther) of world point `p`;
@@ -334,7 +367,9 @@ pub fn render_surfaces(
         options.panel
     );
     let (centre, radius) = framing(panels, path)?;
-    let view = View::new(&options.camera, centre, radius, options.panel).map_err(|e| err(&e))?;
+    let mut view =
+        View::new(&options.camera, centre, radius, options.panel).map_err(|e| err(&e))?;
+    view.fit(panels);
 
     let mut drawn: Vec<usize> = panels
         .iter()
@@ -521,6 +556,44 @@ mod tests {
                 assert!(p[0] > 0 && p[2] == 0, "{x}: {p:?}");
             }
         }
+    }
+
+    #[test]
+    fn orthographic_views_fit_the_screen_extent() {
+        // Two balls one behind the other seen from the front: the bounding sphere is seven
+        // times wider than what shows, a disc of radius 5 the fit makes fill the panel.
+        let near = sphere([0.0, 30.0, 2.0], 5.0, 32);
+        let far = sphere([0.0, -30.0, 2.0], 5.0, 32);
+        let panel = SurfacePanel {
+            time: 0.0,
+            meshes: vec![(0, &near), (0, &far)],
+        };
+        let panels = std::slice::from_ref(&panel);
+        let (centre, radius) = framing(panels, Path::new("x")).unwrap();
+        let size = 200;
+        let mut view = View::new(&FRONT, centre, radius, size).unwrap();
+        view.fit(panels);
+        let rgb = render_panel(&panel, &[class("ball", [0, 0, 250])], &view, WHITE);
+        let disc = 100.0 / FIT_PADDING; // pixels
+        let c = size / 2;
+        for (x, y) in [(c, c), (c + disc as u32 - 3, c), (c, c - disc as u32 + 3)] {
+            assert!(
+                px(&rgb, size, x, y)[2] > 0 && px(&rgb, size, x, y)[0] == 0,
+                "{x} {y}"
+            );
+        }
+        for (x, y) in [(c + disc as u32 + 3, c), (c, c + disc as u32 + 3)] {
+            assert_eq!(px(&rgb, size, x, y), [255, 255, 255], "{x} {y}");
+        }
+        // A perspective camera keeps the bounding sphere's framing.
+        let camera = Camera {
+            perspective: true,
+            ..FRONT
+        };
+        let mut view = View::new(&camera, centre, radius, size).unwrap();
+        let before = view.scale;
+        view.fit(panels);
+        assert_eq!(view.scale, before);
     }
 
     #[test]

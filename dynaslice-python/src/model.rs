@@ -3,7 +3,7 @@
 use crate::batch::{self, Answers, PointsArg, Query, TimesArg};
 use crate::{core_error, detach_result, pool, DynasliceError};
 use dynaslice_core::{Model, ModelBytes};
-use dynaslice_data::nifti::read_volume;
+use dynaslice_data::nifti::{read_geometry, read_volume};
 use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
 use dynaslice_volume::{label_indices, source_labels, write_model_labels, VoxelGrid};
 use numpy::ndarray::{Array1, Array2, Array3};
@@ -320,7 +320,7 @@ impl PyModel {
         threads: Option<usize>,
     ) -> PyResult<(Bound<'py, PyArray1<i32>>, [usize; 3], usize)> {
         let grid = detach_result(py, || {
-            let mut grid = VoxelGrid::like(&read_volume(&like)?);
+            let mut grid = VoxelGrid::like(&read_geometry(&like)?);
             if let Some(times) = times {
                 grid.times = times;
             }

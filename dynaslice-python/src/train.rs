@@ -119,6 +119,7 @@ pub fn train(
         contour_per_class: contour_samples.unwrap_or(sample_defaults.contour_per_class),
         plane_per_class: plane_samples.unwrap_or(sample_defaults.plane_per_class),
         space: space_samples.unwrap_or(sample_defaults.space),
+        ..sample_defaults
     };
     let describe = inputs
         .iter()

@@ -8,6 +8,7 @@
 //! Sines, the loss and Adam are not counted (they are what makes the step slower than its
 //! products).
 
+use super::data_sampler::SampleCounts;
 use super::loss::{ContourSample, PlaneSample};
 use super::matmul::{matmul, Mat, Op};
 use super::network::{Network, OMEGA_0};
@@ -86,9 +87,9 @@ pub fn sgemm_peak(threads: usize, repeats: usize) -> Peak {
     Peak { single, all }
 }
 
-/// Random samples with `per_class` contour and plane samples per class and `space` space-time
-/// samples (the cost does not depend on where the samples are).
-pub fn random_batch(k: usize, per_class: usize, space: usize, seed: u64) -> Batch {
+/// Random samples of K classes drawn as the trainer would by `counts` (classes of equal
+/// contour length), in the normalised frame (the cost does not depend on where they are).
+pub fn random_batch(k: usize, counts: &SampleCounts, seed: u64) -> Batch {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let mut point = || {
         [
@@ -98,43 +99,51 @@ pub fn random_batch(k: usize, per_class: usize, space: usize, seed: u64) -> Batc
             rng.random_range(0.0..1.0),
         ]
     };
+    let equal = vec![1.0; k];
     let mut b = Batch::default();
-    for c in 0..k as u32 {
-        for _ in 0..per_class {
+    for (c, n) in (0u32..).zip(counts.contour_split(&equal)) {
+        for _ in 0..n {
             b.contour_x.push(point());
             b.contour_normal.push([1.0, 0.0, 0.0]);
             b.contour.push(ContourSample {
                 class: c,
-                weight: 1.0 / per_class as f32,
+                weight: 1.0 / n as f32,
             });
+        }
+    }
+    for (c, n) in (0u32..).zip(counts.plane_split(&equal)) {
+        for _ in 0..n {
             b.plane_x.push(point());
             b.plane.push(PlaneSample {
                 class: c,
                 target: 0.1,
                 absent: false,
-                weight: 1.0 / per_class as f32,
+                weight: 1.0 / n as f32,
             });
         }
     }
-    b.space_x = (0..space).map(|_| point()).collect();
+    b.space_x = (0..counts.space).map(|_| point()).collect();
     b
 }
 
 /// Median time of a training step (loss, gradient; no sampling) at `widths` with K classes,
-/// space-time gradients by `scheme`.
+/// space-time gradients by `scheme`, samples drawn by `counts`.
 pub fn step(
     widths: &[u32],
     k: usize,
     scheme: SpaceTimeScheme,
-    per_class: usize,
-    space: usize,
+    counts: &SampleCounts,
     threads: usize,
     repeats: usize,
 ) -> StepReport {
     let layout = Layout::new(widths, k as u32).expect("valid benchmark layout");
     let net = Network::siren(layout, OMEGA_0, 0.0, 10.0, 1);
-    let batch = random_batch(k, per_class, space, 2);
-    let max_set = batch.contour_x.len().max(batch.space_x.len());
+    let batch = random_batch(k, counts, 2);
+    let max_set = batch
+        .contour_x
+        .len()
+        .max(batch.plane_x.len())
+        .max(batch.space_x.len());
     let mut objective = Objective::with_scheme(&net, threads, max_set, scheme);
     let weights = TrainOptions::default().loss;
     let mut grad = vec![0.0; net.params.len()];

@@ -37,26 +37,109 @@ pub fn domain_for(seq: &Sequence) -> Domain {
 }
 
 /// How many samples each step draws.
+///
+/// Up to [`SampleCounts::budget_classes`] classes, every class gets `contour_per_class` contour
+/// and `plane_per_class` plane samples. Beyond that the classes share the budget of
+/// `budget_classes` classes, so that a step's cost grows slowly with K (a shared network's
+/// hidden layers dominate it): each class gets at least `min_per_class`, and the rest is split
+/// in proportion to the classes' contour lengths, so a long boundary gets the samples it needs
+/// and a small structure keeps enough for its mean (Eq. 10 weighs every class's mean equally).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SampleCounts {
-    /// Contour points per class.
+    /// Contour points per class, up to `budget_classes` classes.
     pub contour_per_class: usize,
-    /// Plane samples per class.
+    /// Plane samples per class, up to `budget_classes` classes.
     pub plane_per_class: usize,
     /// Space-time samples (shared by all channels).
     pub space: usize,
+    /// Number of classes whose full per-class counts make the per-step budget.
+    pub budget_classes: usize,
+    /// The fewest contour and plane samples a class gets when classes share the budget (capped
+    /// at the per-class counts).
+    pub min_per_class: usize,
 }
 
 impl Default for SampleCounts {
     /// 1024 contour and 1024 plane samples per class, 1024 space-time: in the measured sweep of
     /// lab/notes/training.md, four times the steps of the 4096-sample batch beat its larger batches
-    /// at equal wall time (chambers IoU 0.975 against 0.866 in 1.5 min).
+    /// at equal wall time (chambers IoU 0.975 against 0.866 in 1.5 min). Past 3 classes the
+    /// classes share the budget of 3, at least 64 samples each.
     fn default() -> Self {
         SampleCounts {
             contour_per_class: 1024,
             plane_per_class: 1024,
             space: 1024,
+            budget_classes: 3,
+            min_per_class: 64,
         }
+    }
+}
+
+impl SampleCounts {
+    /// Contour samples of each class per step, for classes of the given contour lengths.
+    pub fn contour_split(&self, lengths: &[f64]) -> Vec<usize> {
+        self.split(self.contour_per_class, lengths)
+    }
+
+    /// Plane samples of each class per step, for classes of the given contour lengths.
+    pub fn plane_split(&self, lengths: &[f64]) -> Vec<usize> {
+        self.split(self.plane_per_class, lengths)
+    }
+
+    /// A per-step total for `k` classes at `per_class` each, shared past `budget_classes`.
+    pub fn total(&self, per_class: usize, k: usize) -> usize {
+        if k <= self.budget_classes {
+            per_class * k
+        } else {
+            let floor = self.min_per_class.min(per_class);
+            (per_class * self.budget_classes).max(floor * k)
+        }
+    }
+
+    /// The total for `lengths.len()` classes split among them: `per_class` each while the
+    /// budget allows, otherwise the floor each plus the rest by contour length (largest
+    /// remainders, ties to the lower index). Classes of zero length share only the floor; if
+    /// every length is 0 the rest goes evenly.
+    fn split(&self, per_class: usize, lengths: &[f64]) -> Vec<usize> {
+        let k = lengths.len();
+        if k <= self.budget_classes {
+            return vec![per_class; k];
+        }
+        let floor = self.min_per_class.min(per_class);
+        let rest = self.total(per_class, k) - floor * k;
+        let sum: f64 = lengths.iter().sum();
+        let share: Vec<f64> = lengths
+            .iter()
+            .map(|&l| {
+                let w = if sum > 0.0 { l / sum } else { 1.0 / k as f64 };
+                w * rest as f64
+            })
+            .collect();
+        let mut n: Vec<usize> = share.iter().map(|s| s.floor() as usize).collect();
+        let mut order: Vec<usize> = (0..k).collect();
+        order.sort_by(|&a, &b| {
+            let frac = |i: usize| share[i] - share[i].floor();
+            frac(b).total_cmp(&frac(a)).then(a.cmp(&b))
+        });
+        let left = rest - n.iter().sum::<usize>();
+        for &i in order.iter().take(left) {
+            n[i] += 1;
+        }
+        n.iter_mut().for_each(|c| *c += floor);
+        n
+    }
+
+    /// One line for a model's metadata.
+    pub fn describe(&self) -> String {
+        format!(
+            "samples = {} contour + {} plane per class up to {} classes, shared beyond (at least \
+             {} per class), {} space-time",
+            self.contour_per_class,
+            self.plane_per_class,
+            self.budget_classes,
+            self.min_per_class,
+            self.space
+        )
     }
 }
 
@@ -74,6 +157,9 @@ pub struct DataSampler {
     planes: PlaneBatch,
     space: SpaceTimeBatch,
     per_class: Vec<usize>,
+    /// Contour and plane samples of each class per step ([`SampleCounts::contour_split`]).
+    contour_split: Vec<usize>,
+    plane_split: Vec<usize>,
     /// Optional per-class weights of the contour and plane terms (1 by default).
     class_weight: Vec<f32>,
 }
@@ -90,13 +176,19 @@ impl DataSampler {
             counts.contour_per_class,
             counts.plane_per_class,
             counts.space,
+            counts.budget_classes,
+            counts.min_per_class,
         ]
         .iter()
         .fold(dynaslice_data::native::digest(seq), |h, &c| {
             (h ^ c as u64).wrapping_mul(0x100_0000_01b3)
         });
+        let index = SamplingIndex::new(seq);
+        let lengths = index.contour_lengths();
         DataSampler {
-            index: SamplingIndex::new(seq),
+            contour_split: counts.contour_split(&lengths),
+            plane_split: counts.plane_split(&lengths),
+            index,
             domain,
             counts,
             plane: PlaneSampling::for_scene(2.0 * 3f64.sqrt() * s / (1.0 + DOMAIN_MARGIN)),
@@ -175,18 +267,10 @@ impl DataSampler {
 impl Sampler for DataSampler {
     fn sample(&mut self, seed: u64, step: u64, b: &mut Batch) {
         let mut rng = SampleRng::new(seed, step);
-        let k = self.num_classes;
-        self.index.sample_contours(
-            &mut rng,
-            self.counts.contour_per_class * k,
-            &mut self.contour,
-        );
-        self.index.sample_planes(
-            &mut rng,
-            self.counts.plane_per_class * k,
-            &self.plane,
-            &mut self.planes,
-        );
+        self.index
+            .sample_contours(&mut rng, &self.contour_split, &mut self.contour);
+        self.index
+            .sample_planes(&mut rng, &self.plane_split, &self.plane, &mut self.planes);
         sample_space_time(
             &mut rng,
             self.counts.space,
@@ -219,9 +303,9 @@ impl Sampler for DataSampler {
     }
 
     fn max_set_len(&self) -> usize {
-        let k = self.num_classes;
-        (self.counts.contour_per_class * k)
-            .max(self.counts.plane_per_class * k)
+        let sum = |split: &[usize]| split.iter().sum::<usize>();
+        sum(&self.contour_split)
+            .max(sum(&self.plane_split))
             .max(self.counts.space)
     }
 
@@ -248,8 +332,39 @@ mod tests {
             contour_per_class: 32,
             plane_per_class: 32,
             space: 16,
+            ..SampleCounts::default()
         };
         DataSampler::new(&seq, domain_for(&seq), counts)
+    }
+
+    /// Up to the budget's classes each class gets its full count; past it the total stays the
+    /// budget's (or the floors'), each class gets at least the floor, and the rest follows the
+    /// contour lengths.
+    #[test]
+    fn shared_budget_splits_by_contour_length_with_a_floor() {
+        let counts = SampleCounts::default();
+        assert_eq!(counts.contour_split(&[1.0, 5.0, 0.5]), vec![1024; 3]);
+        let lengths: Vec<f64> = (1..=41).map(f64::from).collect();
+        let split = counts.contour_split(&lengths);
+        assert_eq!(split.iter().sum::<usize>(), 3 * 1024);
+        assert_eq!(counts.total(1024, 41), 3 * 1024);
+        assert!(split.iter().all(|&n| n >= 64), "{split:?}");
+        assert!(split.windows(2).all(|w| w[0] <= w[1]), "{split:?}");
+        // 41 · 64 = 2624 floors, 448 by length: the longest (41/861 of it) gets 21 more.
+        assert_eq!((split[0], split[40]), (64, 64 + 21));
+        let many = counts.plane_split(&[0.0; 64]);
+        assert_eq!(many, vec![64; 64], "the floors exceed the budget");
+        let zero_rest = counts.plane_split(&[0.0; 41]);
+        assert_eq!(zero_rest.iter().sum::<usize>(), 3 * 1024);
+        assert!(
+            zero_rest.iter().all(|&n| n == 74 || n == 75),
+            "{zero_rest:?}"
+        );
+        let small = SampleCounts {
+            contour_per_class: 32,
+            ..counts
+        };
+        assert_eq!(small.contour_split(&[1.0, 9.0, 1.0, 1.0, 1.0]), vec![32; 5]);
     }
 
     /// Class weights scale exactly their class's contour and plane sample weights, change the

@@ -5,6 +5,7 @@ use crate::data_sampler::SampleCounts;
 use crate::trainer::{Outcome, TrainOptions};
 use dynaslice_core::format::{MAX_CLASSES, MAX_NAME_LEN};
 use dynaslice_core::{Domain, Error, ModelBytes};
+use dynaslice_data::palette::{parse_hex, to_hex};
 use dynaslice_data::ClassInfo;
 
 /// Checks, before any training, that a model of `classes` in `domain` (from
@@ -76,7 +77,6 @@ impl TrainedModel<'_> {
 
     /// The metadata `dynaslice info` prints: `key = value` lines, in a fixed order.
     fn metadata(&self) -> String {
-        let c = self.counts;
         let mut m = format!("trainer = dynaslice {}\n", env!("CARGO_PKG_VERSION"));
         m += self.input;
         m.push('\n');
@@ -85,12 +85,18 @@ impl TrainedModel<'_> {
             "temporal_factor = {}\nsteps_done = {}\n",
             self.temporal_factor, self.outcome.steps_done
         );
-        m += &format!(
-            "samples = {} contour + {} plane per class, {} space-time\n",
-            c.contour_per_class, c.plane_per_class, c.space
-        );
+        if let Some(planned) = self.outcome.planned_steps {
+            // A timed run's schedule length: what its cosine was fitted to (--minutes).
+            m += &format!("planned_steps = {planned}\n");
+        }
+        m += &self.counts.describe();
+        m.push('\n');
         if let Some(w) = self.class_weights {
             m += &format!("class_weights = {w:?}\n");
+        }
+        if let Some(line) = class_colors_line(self.classes) {
+            m += &line;
+            m.push('\n');
         }
         if let Some(last) = self.outcome.history.last() {
             m += &format!("final_loss = {}\n", last.2);
@@ -99,9 +105,86 @@ impl TrainedModel<'_> {
     }
 }
 
+/// The metadata key of the input's class colours ([`class_colors_line`]).
+pub const CLASS_COLORS_KEY: &str = "class_colors";
+
+/// The metadata line recording the colours of the `classes` that have one, in class order:
+/// `class_colors = 1:#e6194b 2:#3cb44b` (label, then `#rrggbb`); `None` when no class has a
+/// colour. At most 64 classes of ≤ 20 bytes each: far below the metadata's size limit.
+pub fn class_colors_line(classes: &[ClassInfo]) -> Option<String> {
+    let entries: Vec<String> = classes
+        .iter()
+        .filter_map(|c| Some(format!("{}:{}", c.label, to_hex(c.color?))))
+        .collect();
+    (!entries.is_empty()).then(|| format!("{CLASS_COLORS_KEY} = {}", entries.join(" ")))
+}
+
+/// The class colours a model's `metadata` records ([`class_colors_line`]), as (label, colour)
+/// in the line's order: empty when there is no such line (models written before it, inputs
+/// without colours). An error says what is malformed: an entry that is not `LABEL:#rrggbb`, or
+/// a label given twice.
+pub fn parse_class_colors(metadata: &str) -> Result<Vec<(i32, [u8; 3])>, String> {
+    let Some(value) = metadata.lines().find_map(|line| {
+        let (key, value) = line.split_once('=')?;
+        (key.trim() == CLASS_COLORS_KEY).then_some(value)
+    }) else {
+        return Ok(Vec::new());
+    };
+    let mut colors: Vec<(i32, [u8; 3])> = Vec::new();
+    for entry in value.split_whitespace() {
+        let parsed = entry
+            .split_once(':')
+            .and_then(|(label, hex)| Some((label.parse::<i32>().ok()?, parse_hex(hex)?)));
+        let Some((label, color)) = parsed else {
+            return Err(format!(
+                "{CLASS_COLORS_KEY}: entry {entry:?} is not LABEL:#rrggbb"
+            ));
+        };
+        if colors.iter().any(|&(l, _)| l == label) {
+            return Err(format!("{CLASS_COLORS_KEY}: label {label} is given twice"));
+        }
+        colors.push((label, color));
+    }
+    Ok(colors)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn class_colours_round_trip_through_the_metadata_line() {
+        let classes = [
+            ClassInfo {
+                name: "a".into(),
+                label: 1,
+                color: Some([0xe6, 0x19, 0x4b]),
+            },
+            ClassInfo {
+                name: "b".into(),
+                label: 2,
+                color: None,
+            },
+            ClassInfo {
+                name: "c".into(),
+                label: -7,
+                color: Some([0, 0, 255]),
+            },
+        ];
+        let line = class_colors_line(&classes).unwrap();
+        assert_eq!(line, "class_colors = 1:#e6194b -7:#0000ff");
+        let metadata = format!("trainer = dynaslice\n{line}\nfinal_loss = 1\n");
+        assert_eq!(
+            parse_class_colors(&metadata).unwrap(),
+            [(1, [0xe6, 0x19, 0x4b]), (-7, [0, 0, 255])]
+        );
+        assert_eq!(class_colors_line(&classes[1..2]), None);
+        assert_eq!(parse_class_colors("trainer = x\n").unwrap(), []);
+        for bad in ["1:#zz0000", "1=#ff0000", "x:#ff0000", "1:#ff0000 1:#00ff00"] {
+            let e = parse_class_colors(&format!("class_colors = {bad}")).unwrap_err();
+            assert!(e.contains("class_colors"), "{e}");
+        }
+    }
 
     fn class(name: &str, label: i32) -> ClassInfo {
         ClassInfo {

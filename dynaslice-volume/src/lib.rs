@@ -9,14 +9,24 @@
 //!
 //! Memory is bounded by one frame: a frame's labels are computed (in parallel over z-slabs),
 //! counted, encoded and written before the next frame is started.
+//!
+//! Besides the volume, [`write_model_labels_with`] can write companion files
+//! ([`output_files`]): the colour tables of a NIfTI volume for 3D Slicer and ITK-SNAP
+//! ([`dynaslice_data::color_table`]), and for a series of 3D Slicer segmentations the one
+//! `.seq.nrrd` sequence Slicer's Sequences module loads ([`dynaslice_data::nrrd::SequenceWriter`]).
+//! Class colours are the model input's where recorded, else the one palette's
+//! ([`dynaslice_data::palette`]).
 
 #![warn(missing_docs)]
 
 pub mod pruned;
 pub mod voxel_grid;
 
+use dynaslice_data::color_table::{table_paths, write_tables};
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
-use dynaslice_data::nrrd::{frame_path, write_segmentation, SegmentationHeader};
+use dynaslice_data::nrrd::{
+    frame_path, sequence_path, write_segmentation, SegmentationHeader, SequenceWriter,
+};
 use dynaslice_data::ClassInfo;
 pub use pruned::{Evaluation, PruneStats, DEFAULT_SAFETY};
 pub use voxel_grid::VoxelGrid;
@@ -24,7 +34,7 @@ pub use voxel_grid::VoxelGrid;
 use anyhow::{bail, Result};
 use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
 use rayon::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Points per batch call: enough to amortise a call, small enough to stay in cache.
 const CHUNK: usize = 4096;
@@ -121,66 +131,123 @@ fn dense_label_indices(model: &Model, grid: &VoxelGrid, t: f64, out: &mut [u32])
     )
 }
 
+/// How [`write_model_labels_with`] computes a label volume and what it writes besides it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WriteOptions {
+    /// How each frame's labels are computed (`Evaluation::Dense` is `dynaslice labels --dense`).
+    pub evaluation: Evaluation,
+    /// Each class's display colour (channel order) where the model's input gave one; the
+    /// others, and classes past the end, take [`dynaslice_data::palette::palette`]'s.
+    pub colors: Vec<Option<[u8; 3]>>,
+    /// Also write the companion files ([`output_files`]): beside a NIfTI volume its colour
+    /// tables (`NAME.ctbl` for 3D Slicer, `NAME.label.txt` for ITK-SNAP), beside a series of
+    /// 3D Slicer segmentations the one sequence of them (`NAME.seq.nrrd`).
+    pub companions: bool,
+}
+
+/// Whether `path` names 3D Slicer segmentations (`.seg.nrrd`, any case) rather than NIfTI.
+fn is_segmentation(path: &Path) -> bool {
+    path.to_string_lossy()
+        .to_ascii_lowercase()
+        .ends_with(".seg.nrrd")
+}
+
+/// Every file [`write_model_labels_with`] writes for `frames` frames to `path`, so a caller can
+/// check them all before any work: `path` itself (a NIfTI volume, or the one segmentation of a
+/// single frame) or each frame's segmentation ([`dynaslice_data::nrrd::frame_path`]); with
+/// `companions`, then the colour tables ([`dynaslice_data::color_table::table_paths`]) or the
+/// sequence ([`dynaslice_data::nrrd::sequence_path`]) of a series.
+pub fn output_files(path: &Path, frames: usize, companions: bool) -> Vec<PathBuf> {
+    if !is_segmentation(path) {
+        let mut files = vec![path.to_path_buf()];
+        if companions {
+            let (ctbl, label) = table_paths(path);
+            files.extend([ctbl, label]);
+        }
+        return files;
+    }
+    if frames <= 1 {
+        return vec![path.to_path_buf()];
+    }
+    let mut files: Vec<PathBuf> = (0..frames).map(|f| frame_path(path, f, frames)).collect();
+    if companions {
+        files.push(sequence_path(path));
+    }
+    files
+}
+
 /// Writes `model`'s label volume on `grid` to `path` (`.nii` or `.nii.gz`: one NIfTI, a frame
 /// per time; `.seg.nrrd`: a 3D Slicer segmentation per frame, named by
-/// [`dynaslice_data::nrrd::frame_path`], with the classes' names and palette colours) by the default
-/// [`Evaluation`], calling `on_frame(f)` after frame f is written. Returns the voxel count of
-/// each label index (0 = background, k = class k) per frame.
+/// [`dynaslice_data::nrrd::frame_path`], with the classes' names and palette colours) by the
+/// default [`Evaluation`], without companion files, calling `on_frame(f)` after frame f is
+/// written. Returns the voxel count of each label index (0 = background, k = class k) per frame.
 pub fn write_model_labels(
     model: &Model,
     grid: &VoxelGrid,
     path: &Path,
     on_frame: impl FnMut(usize),
 ) -> Result<Vec<Vec<u64>>> {
-    write_model_labels_with(model, grid, path, Evaluation::default(), on_frame)
+    write_model_labels_with(model, grid, path, &WriteOptions::default(), on_frame)
 }
 
-/// [`write_model_labels`] by `evaluation` (`Evaluation::Dense` is `dynaslice labels --dense`).
+/// [`write_model_labels`] by `options`: its evaluation, the classes' colours (in the
+/// segmentations, the sequence and the colour tables) and the companion files, which are
+/// written, each atomically, once every frame is in.
 pub fn write_model_labels_with(
     model: &Model,
     grid: &VoxelGrid,
     path: &Path,
-    evaluation: Evaluation,
+    options: &WriteOptions,
     mut on_frame: impl FnMut(usize),
 ) -> Result<Vec<Vec<u64>>> {
+    let evaluation = options.evaluation;
     evaluation.validate()?;
     let values = source_labels(model)?;
     let lo = values.iter().copied().min().unwrap_or(0);
     let hi = values.iter().copied().max().unwrap_or(0);
+    let frames = grid.times.len();
     let header = VolumeHeader {
         dims: grid.dims,
-        frames: grid.times.len(),
+        frames,
         affine: grid.affine,
         frame_interval: grid.frame_interval()?,
         time_offset: grid.times[0],
         label_range: (lo, hi),
         description: "dynaslice labels (Eq. 11 argmin)".into(),
     };
-    let segmentation = path
-        .to_string_lossy()
-        .to_ascii_lowercase()
-        .ends_with(".seg.nrrd");
+    let classes: Vec<ClassInfo> = model
+        .classes()
+        .enumerate()
+        .map(|(k, c)| ClassInfo {
+            name: c.name.to_string(),
+            label: c.label,
+            color: options.colors.get(k).copied().flatten(),
+        })
+        .collect();
+    let segments = SegmentationHeader {
+        dims: grid.dims,
+        affine: grid.affine,
+        classes,
+    };
+    let segmentation = is_segmentation(path);
     let mut stream = if segmentation {
         None
     } else {
         Some(NiftiStream::create(path, &header)?)
     };
-    let segments = SegmentationHeader {
-        dims: grid.dims,
-        affine: grid.affine,
-        classes: model
-            .classes()
-            .map(|c| ClassInfo {
-                name: c.name.to_string(),
-                label: c.label,
-                color: None,
-            })
-            .collect(),
+    let mut sequence = if segmentation && frames > 1 && options.companions {
+        Some(SequenceWriter::create(
+            &sequence_path(path),
+            &segments,
+            &grid.times,
+        )?)
+    } else {
+        None
     };
     let n = grid.voxels_per_frame();
     let mut indices = vec![0u32; n];
     let mut labels = vec![0i32; n];
-    let mut counts = Vec::with_capacity(grid.times.len());
+    let mut counts = Vec::with_capacity(frames);
     for (f, &t) in grid.times.iter().enumerate() {
         label_indices_with(model, grid, t, evaluation, &mut indices)?;
         let mut count = vec![0u64; values.len()];
@@ -190,13 +257,23 @@ pub fn write_model_labels_with(
         }
         match &mut stream {
             Some(stream) => stream.write_frame(&labels)?,
-            None => write_segmentation(&frame_path(path, f, grid.times.len()), &segments, &labels)?,
+            None => write_segmentation(&frame_path(path, f, frames), &segments, &labels)?,
+        }
+        if let Some(sequence) = &mut sequence {
+            sequence.write_frame(&labels)?;
         }
         counts.push(count);
         on_frame(f);
     }
     if let Some(stream) = stream {
         stream.finish()?;
+        if options.companions {
+            let (ctbl, label) = table_paths(path);
+            write_tables(&ctbl, &label, &segments.classes)?;
+        }
+    }
+    if let Some(sequence) = sequence {
+        sequence.finish()?;
     }
     Ok(counts)
 }
@@ -262,6 +339,64 @@ mod tests {
         assert_eq!(mismatched, 0);
         use dynaslice_data::nifti_stream::LabelType;
         assert_eq!(LabelType::for_range(0, 500), LabelType::Int16);
+    }
+
+    /// The companion files: named by `output_files`, written beside a NIfTI volume and a
+    /// segmentation series, with the given colour where there is one.
+    #[test]
+    fn companions_are_the_files_output_files_names() {
+        let spheres = [Sphere::new([0.0; 3], 0.5, 0.1)];
+        let bytes = dynaslice_test_support::spheres::model(&spheres, &[("ball", 3)]);
+        let model = Model::from_bytes(&bytes).unwrap();
+        let (lo, hi) = model.domain().bounds();
+        let grid = VoxelGrid::from_bounds(
+            lo.map(f64::from),
+            hi.map(f64::from),
+            [4.0; 3],
+            vec![0.0, 1.0, 2.0],
+        )
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let options = WriteOptions {
+            colors: vec![Some([1, 2, 3])],
+            companions: true,
+            ..Default::default()
+        };
+        let names = |files: Vec<PathBuf>| -> Vec<String> {
+            files
+                .iter()
+                .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+                .collect()
+        };
+        for (name, want) in [
+            ("v.nii.gz", &["v.nii.gz", "v.ctbl", "v.label.txt"][..]),
+            (
+                "s.seg.nrrd",
+                &[
+                    "s_t0.seg.nrrd",
+                    "s_t1.seg.nrrd",
+                    "s_t2.seg.nrrd",
+                    "s.seq.nrrd",
+                ][..],
+            ),
+        ] {
+            let path = dir.path().join(name);
+            let files = output_files(&path, 3, true);
+            assert_eq!(names(files.clone()), want);
+            write_model_labels_with(&model, &grid, &path, &options, |_| {}).unwrap();
+            for f in &files {
+                assert!(f.exists(), "{}", f.display());
+            }
+        }
+        let ctbl = std::fs::read_to_string(dir.path().join("v.ctbl")).unwrap();
+        assert!(ctbl.contains("\n3 ball 1 2 3 255\n"), "{ctbl}");
+        // Nothing else: no temporary files, no companions without `companions`.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 7);
+        assert_eq!(
+            names(output_files(Path::new("x.seg.nrrd"), 1, true)),
+            ["x.seg.nrrd"]
+        );
+        assert_eq!(names(output_files(Path::new("x.nii"), 4, false)), ["x.nii"]);
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! The sampling grid of a label volume: voxels, their world positions and the frame times.
 
 use anyhow::{bail, ensure, Result};
-use dynaslice_data::nifti::LabelVolume;
+use dynaslice_data::nifti::Geometry;
 
 /// Where a label volume samples the model: `dims` voxels whose centres are at
 /// `world = affine · (i, j, k, 1)`, at each of `times` (one frame per time).
@@ -19,8 +19,9 @@ impl VoxelGrid {
     /// The grid of a reference volume: same dimensions, affine and frames, frame f at time
     /// f · frame interval, the times the NIfTI reader gives a volume's frames when it trains
     /// on it ([`dynaslice_data::reslice`]), so a model trained on `reference` is queried at its
-    /// own frames.
-    pub fn like(reference: &LabelVolume) -> VoxelGrid {
+    /// own frames. From a file's header alone ([`dynaslice_data::nifti::read_geometry`]) or a
+    /// volume in memory ([`dynaslice_data::nifti::LabelVolume::geometry`]).
+    pub fn like(reference: &Geometry) -> VoxelGrid {
         VoxelGrid {
             dims: reference.dims,
             affine: reference.affine,
@@ -141,7 +142,20 @@ mod tests {
         );
         assert_eq!(g.dims, truth.dims);
         assert_eq!(g.affine, truth.affine);
-        assert_eq!(VoxelGrid::like(&truth).times, vec![0.0, 1.0]);
+        assert_eq!(VoxelGrid::like(&truth.geometry()).times, vec![0.0, 1.0]);
+        // The same grid from the header alone, of a compressed and a plain file.
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["truth.nii.gz", "truth.nii"] {
+            let path = dir.path().join(name);
+            dynaslice_data::nifti::write_volume(&truth, &path).unwrap();
+            let header = dynaslice_data::nifti::read_geometry(&path).unwrap();
+            let volume = dynaslice_data::nifti::read_volume(&path).unwrap();
+            assert_eq!(
+                VoxelGrid::like(&header),
+                VoxelGrid::like(&volume.geometry())
+            );
+            assert_eq!((header.dims, header.frames), (truth.dims, 2));
+        }
         assert!((g.voxel_volume() * 64f64.powi(3) - 8.0).abs() < 1e-9);
         assert_eq!(
             g.world(63, 0, 0),

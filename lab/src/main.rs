@@ -19,10 +19,13 @@ struct Lab {
 enum Command {
     /// Reproduce the paper's tables (Table 3 on the synthetic benchmark, Table 2 on synthetic and
     /// real multi-organ data, static `.csl` reconstructions) as markdown.
-    Results(results::Args),
+    Results(Box<results::Args>),
     /// Timed training at equal wall time on the synthetic benchmark: the schedule planned to end
     /// at the budget against a `--cap`-step cosine cut off there (markdown rows on stdout).
     Schedule(ScheduleArgs),
+    /// One training step against the same step in PyTorch (lab/pytorch/step.py), same run,
+    /// same sizes, after checking both compute the same loss and gradient (a markdown table).
+    TorchStep(experiments::torch_step::Args),
 }
 
 /// Arguments of `dynaslice-lab schedule`.
@@ -72,8 +75,9 @@ fn schedule(a: ScheduleArgs) -> anyhow::Result<()> {
 
 fn main() -> ExitCode {
     let outcome = match Lab::parse().command {
-        Command::Results(args) => results::run(args),
+        Command::Results(args) => results::run(*args),
         Command::Schedule(args) => schedule(args),
+        Command::TorchStep(args) => experiments::torch_step::run(args),
     };
     match outcome {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,7 +1,7 @@
 //! `dynaslice-lab results`: reproduce the paper's tables and write them as markdown
 //! (lab/results/results.md), rewritten after every run so a killed job keeps what it measured.
 
-use crate::experiments::multiclass::{self, SharingRun};
+use crate::experiments::multiclass::{self, Sharing, SharingRun};
 use crate::experiments::reference::{self, CaseRun};
 use crate::experiments::synthetic::{self, Run, Scene, Variant};
 use crate::experiments::Protocol;
@@ -52,6 +52,17 @@ pub struct Args {
     /// skipped, with a message, when it is absent).
     #[arg(long, default_value = "../shared/data")]
     data: PathBuf,
+    /// Inputs of the multi-class table: chambers (synthetic), organs (the real CT).
+    #[arg(long, value_delimiter = ',', default_value = "chambers,organs")]
+    cases: Vec<String>,
+    /// Ways of sharing of the multi-class table (those that apply to each input).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "independent,independent-equal-time,shared,shared-no-temporal"
+    )]
+    sharings: Vec<Sharing>,
     /// Classes of the real multi-organ table: the largest labels of the segmentation.
     #[arg(long, default_value_t = 5)]
     organs: usize,
@@ -187,6 +198,7 @@ pub fn run(a: Args) -> Result<()> {
             contour_per_class: a.samples,
             plane_per_class: a.samples,
             space: a.samples,
+            ..SampleCounts::default()
         },
         temporal_factor: a.temporal_factor,
     };
@@ -244,13 +256,23 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     if wants("multiclass") {
-        let mut cases = vec![chambers_case(a.pixels)?];
-        match organs_case(&a.data, a.organs, a.pixels) {
-            Ok(case) => cases.push(case),
-            Err(e) => {
-                let why = format!("the real multi-organ case: {e:#}");
-                eprintln!("skipped {why}");
-                report.skipped.push(why);
+        for c in &a.cases {
+            if !["chambers", "organs"].contains(&c.as_str()) {
+                bail!("unknown multi-class case {c:?} (expected chambers or organs)");
+            }
+        }
+        let mut cases = Vec::new();
+        if a.cases.iter().any(|c| c == "chambers") {
+            cases.push(chambers_case(a.pixels)?);
+        }
+        if a.cases.iter().any(|c| c == "organs") {
+            match organs_case(&a.data, a.organs, a.pixels) {
+                Ok(case) => cases.push(case),
+                Err(e) => {
+                    let why = format!("the real multi-organ case: {e:#}");
+                    eprintln!("skipped {why}");
+                    report.skipped.push(why);
+                }
             }
         }
         for case in cases {
@@ -258,7 +280,8 @@ pub fn run(a: Args) -> Result<()> {
             report.multiclass.push((case, Vec::new()));
             let i = report.multiclass.len() - 1;
             for seed in 0..a.seeds.max(1) {
-                for sharing in report.multiclass[i].0.sharings() {
+                let sharings = report.multiclass[i].0.sharings();
+                for sharing in sharings.into_iter().filter(|s| a.sharings.contains(s)) {
                     let case = &report.multiclass[i].0;
                     eprintln!(
                         "{} / {} / seed {seed}: {steps} steps per model",
@@ -346,24 +369,62 @@ fn organs_case(data: &Path, organs: usize, pixels: usize) -> Result<multiclass::
         labels: Some(labels.clone()),
         ..ResliceOptions::default()
     };
-    let seq = reslice(&volume, &options, &LabelTable::default()).map_err(|e| e.in_file(&path))?;
+    let split = Split {
+        frames: None,
+        planes: Some(FrameRange {
+            start: 3,
+            end: None,
+            step: 4,
+        }),
+    };
+    let mut seq =
+        reslice(&volume, &options, &LabelTable::default()).map_err(|e| e.in_file(&path))?;
+    // A small organ may be crossed only by withheld planes: nothing to train it on. Such
+    // labels are dropped, and the caption says which.
+    let frame = &seq.frames()[0];
+    let count = frame.planes.len();
+    let trained: Vec<i32> = seq
+        .classes()
+        .iter()
+        .enumerate()
+        .filter(|&(c, _)| {
+            frame.planes.iter().enumerate().any(|(i, plane)| {
+                !split.planes.is_some_and(|r| r.contains(i, count))
+                    && plane.annotation(c).is_some_and(|a| !a.polygons.is_empty())
+            })
+        })
+        .map(|(_, class)| class.label)
+        .collect();
+    let dropped: Vec<i32> = labels
+        .iter()
+        .copied()
+        .filter(|l| !trained.contains(l))
+        .collect();
+    if !dropped.is_empty() {
+        eprintln!("organs: labels {dropped:?} lie only on withheld planes; dropped");
+        let options = ResliceOptions {
+            labels: Some(trained.clone()),
+            ..ResliceOptions::default()
+        };
+        seq = reslice(&volume, &options, &LabelTable::default()).map_err(|e| e.in_file(&path))?;
+    }
+    let dropped_text = if dropped.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; labels {dropped:?} dropped: only withheld planes cross them, so nothing trains them"
+        )
+    };
     Ok(multiclass::Case {
         name: "TotalSegmentator CT segmentation (real, static)".into(),
         source: format!(
-            "`{}`, its {} largest labels ({labels:?}) resliced by the paper's protocol (20 \
-             rotated + every 2nd axial plane)",
+            "`{}`, its {} largest labels ({trained:?}) resliced by the paper's protocol (20 \
+             rotated + every 2nd axial plane){dropped_text}",
             path.display(),
-            labels.len()
+            trained.len()
         ),
         seq,
-        split: Split {
-            frames: None,
-            planes: Some(FrameRange {
-                start: 3,
-                end: None,
-                step: 4,
-            }),
-        },
+        split,
         pixels,
     })
 }

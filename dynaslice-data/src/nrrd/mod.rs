@@ -1,5 +1,6 @@
 //! NRRD label maps and 3D Slicer segmentations (`.nrrd`, `.nhdr`, `.seg.nrrd`): reading into a
-//! [`LabelVolume`] and its [`LabelTable`], and writing a 3D Slicer segmentation per frame.
+//! [`LabelVolume`] and its [`LabelTable`], and writing a 3D Slicer segmentation per frame and
+//! a 3D Slicer sequence of them (`.seq.nrrd`).
 //!
 //! No maintained Rust NRRD crate exists (crates.io has no `nrrd`/`nrrd-rs`), and the header is
 //! a small text format, so it is parsed here; gzip goes through `flate2`.
@@ -55,12 +56,21 @@
 //! `Segmentation_ReferenceImageExtentOffset:=0 0 0`. Key values escape `\` and newlines as the
 //! NRRD format says (`\\`, `\n`). The file is written under a temporary name and renamed
 //! ([`crate::atomic::write_atomically`]): a failure leaves no partial file.
+//!
+//! A series of frames can also be written as one 3D Slicer sequence ([`SequenceWriter`],
+//! `NAME.seq.nrrd` by [`sequence_path`]): a 4D file, the frames along a last `list` axis, with
+//! the keys of Slicer's Sequences module (its docs list them) and the same `SegmentN_` keys.
 
 mod read;
 mod write;
 
+/// The class colours of every output ([`crate::palette`]), here for the segmentation writer's
+/// callers.
+pub use crate::palette::palette;
 pub use read::read_volume;
-pub use write::{frame_path, palette, write_segmentation, SegmentationHeader};
+pub use write::{
+    frame_path, sequence_path, write_segmentation, SegmentationHeader, SequenceWriter,
+};
 
 #[cfg(doc)]
 use crate::{label_table::LabelTable, nifti::LabelVolume};

@@ -219,6 +219,14 @@ impl Header {
         })
     }
 
+    /// The value of key `name` (`name:=value`), if given.
+    fn pair(&self, name: &str) -> Option<&str> {
+        self.pairs
+            .iter()
+            .find(|(k, _, _)| k == name)
+            .map(|(_, v, _)| v.as_str())
+    }
+
     /// Whether any `SegmentN_…` key is present: the file is a 3D Slicer segmentation.
     fn has_segments(&self) -> bool {
         self.pairs.iter().any(|(k, _, _)| segment_key(k).is_some())
@@ -484,6 +492,10 @@ impl Layout {
                 a,
                 match kind(a).as_deref() {
                     Some("time") => Extra::Time,
+                    // A 3D Slicer sequence (`.seq.nrrd`): the list axis indexes frames by time.
+                    Some("list") if h.pair(&format!("axis {a} index values")).is_some() => {
+                        Extra::Time
+                    }
                     Some("list" | "???" | "none") | None if h.has_segments() => Extra::Layers,
                     k => {
                         return Err(nrrd(format!(
@@ -538,6 +550,9 @@ impl Layout {
             )));
         }
         let frame_interval = match extra {
+            Some((a, Extra::Time)) if kind(a).as_deref() == Some("list") => {
+                sequence_interval(path, h, a, sizes[a])?
+            }
             Some((a, Extra::Time)) => match spacings.as_ref().map(|s| s[a]) {
                 Some(dt) if dt.is_nan() || dt == 0.0 => 1.0,
                 Some(dt) if dt.is_finite() && dt > 0.0 => dt,
@@ -561,6 +576,47 @@ impl Layout {
             frame_interval,
         })
     }
+}
+
+/// The time between frames of a 3D Slicer sequence's list axis `a` of `frames` entries, from
+/// its `axis A index values` key: one number per frame, evenly spaced (a label volume's frames
+/// are i·interval apart). Frames are read relative to the first frame's time.
+fn sequence_interval(path: &Path, h: &Header, a: usize, frames: usize) -> Result<f64> {
+    let key = format!("axis {a} index values");
+    let text = h.pair(&key).unwrap_or_default();
+    let values: Vec<f64> = text
+        .split_whitespace()
+        .map(|v| v.parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect::<Option<_>>()
+        .ok_or_else(|| nrrd(format!("`{key}`: not a list of finite numbers ({text:?})")))?;
+    if values.len() != frames {
+        return Err(nrrd(format!(
+            "`{key}`: {} times for the {frames} frames of axis {a}",
+            values.len()
+        )));
+    }
+    if frames < 2 {
+        return Ok(1.0);
+    }
+    let interval = (values[frames - 1] - values[0]) / (frames - 1) as f64;
+    let even = values.windows(2).enumerate().all(|(i, w)| {
+        w[1] > w[0] && (values[0] + (i + 1) as f64 * interval - w[1]).abs() <= 1e-4 * interval
+    });
+    if !(interval > 0.0 && even) {
+        return Err(nrrd(format!(
+            "`{key}`: the frame times {values:?} are not increasing and evenly spaced; a label \
+             volume's frames are; list the frames in a .seq manifest instead"
+        )));
+    }
+    if values[0] != 0.0 {
+        log::warn!(
+            "{}: `{key}`: the first frame is at time {}; frames are read from time 0, {interval} \
+             apart",
+            path.display(),
+            values[0]
+        );
+    }
+    Ok(interval)
 }
 
 /// A per-axis list of words (`kinds`), if given: one per axis.

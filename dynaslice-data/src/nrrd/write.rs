@@ -2,7 +2,8 @@
 //! [module docs](super) for the fields written.
 
 use std::collections::HashSet;
-use std::io::Write;
+use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use flate2::write::GzEncoder;
@@ -11,6 +12,7 @@ use super::{escape, flip_xy};
 use crate::atomic::write_atomically;
 use crate::error::{DataError, ErrorKind, Result};
 use crate::nifti::det3;
+use crate::palette::palette;
 use crate::sequence::ClassInfo;
 
 /// What a segmentation file describes besides its voxels.
@@ -25,27 +27,6 @@ pub struct SegmentationHeader {
     pub classes: Vec<ClassInfo>,
 }
 
-/// Tableau 10 (matplotlib's `tab10`): ten qualitative colours chosen to stay distinct from one
-/// another and readable on dark and light backgrounds, as 3D Slicer shows segments.
-const TABLEAU_10: [[u8; 3]; 10] = [
-    [0x1f, 0x77, 0xb4], // blue
-    [0xff, 0x7f, 0x0e], // orange
-    [0x2c, 0xa0, 0x2c], // green
-    [0xd6, 0x27, 0x28], // red
-    [0x94, 0x67, 0xbd], // purple
-    [0x8c, 0x56, 0x4b], // brown
-    [0xe3, 0x77, 0xc2], // pink
-    [0x7f, 0x7f, 0x7f], // grey
-    [0xbc, 0xbd, 0x22], // olive
-    [0x17, 0xbe, 0xcf], // cyan
-];
-
-/// The display colour (sRGB) of the segment at position `index` when its class has none: the
-/// Tableau 10 palette, repeating after ten.
-pub fn palette(index: usize) -> [u8; 3] {
-    TABLEAU_10[index % TABLEAU_10.len()]
-}
-
 /// The file of frame `frame` of a `frames`-frame series written to `path`: `path` itself for
 /// one frame, else `_t` and the zero-padded frame number before `.seg.nrrd` (or `.nrrd`), e.g.
 /// `heart.seg.nrrd` → `heart_t07.seg.nrrd` for frame 7 of 20.
@@ -54,14 +35,7 @@ pub fn frame_path(path: &Path, frame: usize, frames: usize) -> PathBuf {
         return path.to_path_buf();
     }
     let width = (frames - 1).to_string().len();
-    let name = path
-        .file_name()
-        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-    let lower = name.to_ascii_lowercase();
-    let stem = [".seg.nrrd", ".nrrd"]
-        .iter()
-        .find(|ext| lower.ends_with(*ext))
-        .map_or(name.len(), |ext| name.len() - ext.len());
+    let (name, stem) = name_and_stem(path);
     path.with_file_name(format!(
         "{}_t{frame:0width$}{}",
         &name[..stem],
@@ -78,21 +52,44 @@ pub fn write_segmentation(path: &Path, header: &SegmentationHeader, labels: &[i3
     write_atomically(path, &bytes).map_err(|e| at(format!("cannot write: {e:#}")))
 }
 
-/// The whole file: header text, then the gzip-compressed voxels.
-fn encode(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<Vec<u8>, String> {
-    let [nx, ny, nz] = h.dims;
+/// The file of the 3D Slicer sequence beside a segmentation series written to `path`:
+/// `.seg.nrrd` (or a last `.nrrd`, any case) replaced by `.seq.nrrd`, e.g. `heart.seg.nrrd` →
+/// `heart.seq.nrrd`; other names get `.seq.nrrd` appended.
+pub fn sequence_path(path: &Path) -> PathBuf {
+    let (name, stem) = name_and_stem(path);
+    path.with_file_name(format!("{}.seq.nrrd", &name[..stem]))
+}
+
+/// The file name of `path` and the length of its stem: the name without a last `.seg.nrrd` or
+/// `.nrrd` (any case), or the whole name.
+fn name_and_stem(path: &Path) -> (String, usize) {
+    let name = path
+        .file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    let lower = name.to_ascii_lowercase();
+    let stem = [".seg.nrrd", ".nrrd"]
+        .iter()
+        .find(|ext| lower.ends_with(*ext))
+        .map_or(name.len(), |ext| name.len() - ext.len());
+    (name, stem)
+}
+
+/// The voxel type of a file: NRRD's name and bytes per voxel.
+#[derive(Clone, Copy)]
+struct VoxelType {
+    name: &'static str,
+    width: usize,
+}
+
+/// Checks `h` and returns the voxels per frame and the voxel type: the narrowest of `unsigned
+/// char`, `short` and `int` that holds every class label.
+fn check_header(h: &SegmentationHeader) -> std::result::Result<(usize, VoxelType), String> {
     let voxels = h
         .dims
         .iter()
         .try_fold(1usize, |n, &d| n.checked_mul(d))
         .filter(|_| !h.dims.contains(&0))
         .ok_or_else(|| format!("dims {:?} are not a volume", h.dims))?;
-    if labels.len() != voxels {
-        return Err(format!(
-            "{} labels for {nx}×{ny}×{nz} = {voxels} voxels",
-            labels.len()
-        ));
-    }
     let a = h.affine;
     if !a.iter().flatten().all(|v| v.is_finite()) || det3(&a) == 0.0 {
         return Err(format!(
@@ -114,6 +111,31 @@ fn encode(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<Vec<u8>
             return Err(format!("class name {:?} has a control character", c.name));
         }
     }
+    let (lo, hi) = h
+        .classes
+        .iter()
+        .fold((0, 0), |(lo, hi), c| (c.label.min(lo), c.label.max(hi)));
+    let (name, width) = if lo >= 0 && hi <= i32::from(u8::MAX) {
+        ("unsigned char", 1)
+    } else if lo >= i32::from(i16::MIN) && hi <= i32::from(i16::MAX) {
+        ("short", 2)
+    } else {
+        ("int", 4)
+    };
+    Ok((voxels, VoxelType { name, width }))
+}
+
+/// An error unless `labels` has one value per voxel, each 0 or a class's label.
+fn check_labels(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<(), String> {
+    let [nx, ny, nz] = h.dims;
+    let voxels = nx * ny * nz;
+    if labels.len() != voxels {
+        return Err(format!(
+            "{} labels for {nx}×{ny}×{nz} = {voxels} voxels",
+            labels.len()
+        ));
+    }
+    let known: HashSet<i32> = h.classes.iter().map(|c| c.label).collect();
     if let Some(n) = labels.iter().position(|&v| v != 0 && !known.contains(&v)) {
         return Err(format!(
             "voxel ({}, {}, {}) has label {}, which no class has",
@@ -123,20 +145,20 @@ fn encode(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<Vec<u8>
             labels[n]
         ));
     }
-    let (lo, hi) = h
-        .classes
-        .iter()
-        .fold((0, 0), |(lo, hi), c| (c.label.min(lo), c.label.max(hi)));
-    let (type_name, width) = if lo >= 0 && hi <= i32::from(u8::MAX) {
-        ("unsigned char", 1)
-    } else if lo >= i32::from(i16::MIN) && hi <= i32::from(i16::MAX) {
-        ("short", 2)
-    } else {
-        ("int", 4)
-    };
-    let num = |x: f64| format!("{}", x + 0.0); // + 0.0: no "-0"
+    Ok(())
+}
+
+/// A number as NRRD headers write it: the shortest exact decimal, never `-0`.
+fn num(x: f64) -> String {
+    format!("{}", x + 0.0)
+}
+
+/// The header text (through the blank line) of one frame, or of a sequence of frames at
+/// `times` (a fourth, `list` axis, slowest).
+fn header_text(h: &SegmentationHeader, t: VoxelType, times: Option<&[f64]>) -> String {
+    let [nx, ny, nz] = h.dims;
     let vector = |v: [f64; 3]| format!("({},{},{})", num(v[0]), num(v[1]), num(v[2]));
-    let lps = flip_xy(&a);
+    let lps = flip_xy(&h.affine);
     let column = |c: usize| vector([lps[0][c], lps[1][c], lps[2][c]]);
     let mut text = String::from(
         "NRRD0004\n# Complete NRRD file format specification at:\n\
@@ -146,18 +168,26 @@ fn encode(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<Vec<u8>
         text.push_str(&s);
         text.push('\n');
     };
-    line(format!("type: {type_name}"));
-    line("dimension: 3".into());
-    line("space: left-posterior-superior".into());
-    line(format!("sizes: {nx} {ny} {nz}"));
-    line(format!(
-        "space directions: {} {} {}",
-        column(0),
-        column(1),
-        column(2)
-    ));
-    line("kinds: domain domain domain".into());
-    if width > 1 {
+    line(format!("type: {}", t.name));
+    let directions = format!("{} {} {}", column(0), column(1), column(2));
+    match times {
+        None => {
+            line("dimension: 3".into());
+            line("space: left-posterior-superior".into());
+            line(format!("sizes: {nx} {ny} {nz}"));
+            line(format!("space directions: {directions}"));
+            line("kinds: domain domain domain".into());
+        }
+        Some(times) => {
+            line("dimension: 4".into());
+            line("space: left-posterior-superior".into());
+            line(format!("sizes: {nx} {ny} {nz} {}", times.len()));
+            line(format!("space directions: {directions} none"));
+            line("kinds: domain domain domain list".into());
+            line("labels: \"\" \"\" \"\" \"time\"".into());
+        }
+    }
+    if t.width > 1 {
         line("endian: little".into());
     }
     line("encoding: gzip".into());
@@ -165,6 +195,16 @@ fn encode(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<Vec<u8>
         "space origin: {}",
         vector([lps[0][3], lps[1][3], lps[2][3]])
     ));
+    if let Some(times) = times {
+        // Times at the f32 precision of the NIfTI output's header (1, not 1.0000000074505806).
+        let values: Vec<String> = times
+            .iter()
+            .map(|&t| (t as f32 + 0.0).to_string())
+            .collect();
+        line("DataNodeClassName:=vtkMRMLLabelMapVolumeNode".into());
+        line("axis 3 index type:=numeric".into());
+        line(format!("axis 3 index values:={}", values.join(" ")));
+    }
     for (n, c) in h.classes.iter().enumerate() {
         let color = c.color.unwrap_or_else(|| palette(n));
         let key = |field: &str, value: String| format!("Segment{n}_{field}:={value}");
@@ -187,26 +227,161 @@ fn encode(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<Vec<u8>
         line(key("NameAutoGenerated", "0".into()));
         line(key("Tags", "|".into()));
     }
-    line("Segmentation_ContainedRepresentationNames:=Binary labelmap|".into());
-    line("Segmentation_MasterRepresentation:=Binary labelmap".into());
-    line("Segmentation_ReferenceImageExtentOffset:=0 0 0".into());
+    if times.is_none() {
+        line("Segmentation_ContainedRepresentationNames:=Binary labelmap|".into());
+        line("Segmentation_MasterRepresentation:=Binary labelmap".into());
+        line("Segmentation_ReferenceImageExtentOffset:=0 0 0".into());
+    }
     line(String::new());
+    text
+}
+
+/// `labels` in the file's voxel type, little-endian, into `out` (cleared first). Every value is
+/// 0 or a class label, all within the type's range ([`check_header`], [`check_labels`]).
+fn encode_voxels(labels: &[i32], t: VoxelType, out: &mut Vec<u8>) {
+    out.clear();
+    match t.width {
+        1 => out.extend(labels.iter().map(|&v| v as u8)),
+        2 => labels
+            .iter()
+            .for_each(|&v| out.extend((v as i16).to_le_bytes())),
+        _ => labels.iter().for_each(|&v| out.extend(v.to_le_bytes())),
+    }
+}
+
+/// The whole file: header text, then the gzip-compressed voxels.
+fn encode(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<Vec<u8>, String> {
+    let (_, t) = check_header(h)?;
+    check_labels(h, labels)?;
+    let text = header_text(h, t, None);
     let mut gz = GzEncoder::new(text.into_bytes(), flate2::Compression::default());
     let mut buffer = Vec::with_capacity(1 << 16);
     for chunk in labels.chunks(1 << 14) {
-        buffer.clear();
-        // Every value is 0 or a class label, all within the type's range (checked above).
-        match width {
-            1 => buffer.extend(chunk.iter().map(|&v| v as u8)),
-            2 => chunk
-                .iter()
-                .for_each(|&v| buffer.extend((v as i16).to_le_bytes())),
-            _ => chunk.iter().for_each(|&v| buffer.extend(v.to_le_bytes())),
-        }
+        encode_voxels(chunk, t, &mut buffer);
         gz.write_all(&buffer)
             .map_err(|e| format!("cannot compress: {e}"))?;
     }
     gz.finish().map_err(|e| format!("cannot compress: {e}"))
+}
+
+/// A 3D Slicer sequence of segmentation frames (`.seq.nrrd`) being written frame by frame:
+/// the format of Slicer's Sequences module for a sequence of volumes on one grid, a 4D NRRD
+/// whose last axis is a `list` of frames (`kinds: domain domain domain list`, `labels: "" ""
+/// "" "time"`), with `DataNodeClassName:=vtkMRMLLabelMapVolumeNode`, `axis 3 index
+/// type:=numeric` and `axis 3 index values:=` the frames' times; the voxels are the classes'
+/// labels as in [`write_segmentation`], whose `SegmentN_` keys (names, colours, label values) it
+/// carries too. Slicer 5.10 and later load it as a label-map sequence indexed by time (earlier
+/// versions read `axis 0` keys only and number the frames 0, 1, …).
+///
+/// Memory is one chunk of encoded voxels: frames are compressed into a temporary file beside
+/// `path` as they come, renamed into place by [`SequenceWriter::finish`] and deleted if the
+/// writer is dropped before.
+pub struct SequenceWriter {
+    path: PathBuf,
+    tmp: PathBuf,
+    sink: Option<GzEncoder<BufWriter<File>>>,
+    header: SegmentationHeader,
+    voxel_type: VoxelType,
+    frames: usize,
+    written: usize,
+    buffer: Vec<u8>,
+}
+
+impl SequenceWriter {
+    /// Checks `header` and `times` (finite, one per frame, at least one), creates the temporary
+    /// file beside `path` and writes the header.
+    pub fn create(path: &Path, header: &SegmentationHeader, times: &[f64]) -> Result<Self> {
+        let at = |what: String| DataError::new(ErrorKind::Nrrd(what)).in_file(path);
+        let (_, voxel_type) = check_header(header).map_err(at)?;
+        if times.is_empty() {
+            return Err(at("a sequence needs at least one frame".into()));
+        }
+        if let Some(t) = times.iter().find(|t| !t.is_finite()) {
+            return Err(at(format!("frame time {t} is not finite")));
+        }
+        let name = path
+            .file_name()
+            .ok_or_else(|| at("not a file name".into()))?;
+        let tmp = path.with_file_name(format!(".{}.tmp", name.to_string_lossy()));
+        let mut file = File::create(&tmp)
+            .map(BufWriter::new)
+            .map_err(|e| at(format!("cannot create {}: {e}", tmp.display())))?;
+        let mut writer = SequenceWriter {
+            path: path.to_path_buf(),
+            tmp,
+            sink: None,
+            header: header.clone(),
+            voxel_type,
+            frames: times.len(),
+            written: 0,
+            buffer: Vec::with_capacity(1 << 16),
+        };
+        // From here on, dropping `writer` deletes the temporary file.
+        let text = header_text(header, voxel_type, Some(times));
+        let result = file.write_all(text.as_bytes());
+        writer.sink = Some(GzEncoder::new(file, flate2::Compression::default()));
+        result.map_err(|e| writer.error(format!("cannot write: {e}")))?;
+        Ok(writer)
+    }
+
+    /// Appends the next frame: one label per voxel, x fastest, each 0 or a class's label.
+    pub fn write_frame(&mut self, labels: &[i32]) -> Result<()> {
+        if self.written == self.frames {
+            return Err(self.error(format!(
+                "frame {} is one more than the {} announced",
+                self.written, self.frames
+            )));
+        }
+        check_labels(&self.header, labels).map_err(|e| self.error(e))?;
+        let mut buffer = std::mem::take(&mut self.buffer);
+        let sink = self.sink.as_mut().expect("open until finish");
+        let mut result = Ok(());
+        for chunk in labels.chunks(1 << 14) {
+            encode_voxels(chunk, self.voxel_type, &mut buffer);
+            result = sink.write_all(&buffer);
+            if result.is_err() {
+                break;
+            }
+        }
+        self.buffer = buffer;
+        result.map_err(|e| self.error(format!("cannot write: {e}")))?;
+        self.written += 1;
+        Ok(())
+    }
+
+    /// Completes the file after the last frame: flushes, syncs and renames it into place.
+    pub fn finish(mut self) -> Result<()> {
+        if self.written != self.frames {
+            return Err(self.error(format!(
+                "{} of {} frames written",
+                self.written, self.frames
+            )));
+        }
+        let sink = self.sink.take().expect("open until finish");
+        let done = sink
+            .finish()
+            .and_then(|w| w.into_inner().map_err(|e| e.into_error()))
+            .and_then(|file| file.sync_all())
+            .and_then(|()| std::fs::rename(&self.tmp, &self.path));
+        if let Err(e) = done {
+            let _ = std::fs::remove_file(&self.tmp);
+            return Err(self.error(format!("cannot write: {e}")));
+        }
+        Ok(())
+    }
+
+    fn error(&self, what: String) -> DataError {
+        DataError::new(ErrorKind::Nrrd(what)).in_file(&self.path)
+    }
+}
+
+impl Drop for SequenceWriter {
+    /// An unfinished sequence (an error or a panic mid-way) leaves no temporary file behind.
+    fn drop(&mut self) {
+        if self.sink.take().is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -226,9 +401,102 @@ mod tests {
     }
 
     #[test]
-    fn palette_is_ten_distinct_colours_then_repeats() {
-        let first: HashSet<[u8; 3]> = (0..10).map(palette).collect();
-        assert_eq!(first.len(), 10);
-        assert_eq!(palette(10), palette(0));
+    fn sequence_paths_replace_the_extension() {
+        let p = |s: &str| sequence_path(Path::new(s));
+        assert_eq!(p("/out/heart.seg.nrrd"), Path::new("/out/heart.seq.nrrd"));
+        assert_eq!(p("a.SEG.NRRD"), Path::new("a.seq.nrrd"));
+        assert_eq!(p("a.nrrd"), Path::new("a.seq.nrrd"));
+        assert_eq!(p("x.bin"), Path::new("x.bin.seq.nrrd"));
+    }
+
+    fn two_classes() -> SegmentationHeader {
+        SegmentationHeader {
+            dims: [3, 2, 1],
+            affine: [
+                [2.0, 0.0, 0.0, 10.0],
+                [0.0, 1.0, 0.0, -5.0],
+                [0.0, 0.0, 3.0, 0.0],
+            ],
+            classes: vec![
+                ClassInfo {
+                    name: "a b".into(),
+                    label: 1,
+                    color: Some([255, 0, 0]),
+                },
+                ClassInfo {
+                    name: "c".into(),
+                    label: 300,
+                    color: None,
+                },
+            ],
+        }
+    }
+
+    /// The header names a 4D list-last volume with the sequence keys, and the gzip stream holds
+    /// the frames one after the other as 16-bit little-endian labels.
+    #[test]
+    fn sequence_streams_frames_after_its_header() {
+        use std::io::Read;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.seq.nrrd");
+        let h = two_classes();
+        let frames = [[0, 1, 300, 1, 0, 0], [300, 300, 0, 0, 1, 0]];
+        let mut w = SequenceWriter::create(&path, &h, &[0.0, 0.1 + 0.2]).unwrap();
+        for f in &frames {
+            w.write_frame(f).unwrap();
+        }
+        w.finish().unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let end = bytes.windows(2).position(|w| w == b"\n\n").unwrap() + 2;
+        let text = std::str::from_utf8(&bytes[..end]).unwrap();
+        for want in [
+            "type: short\n",
+            "dimension: 4\n",
+            "sizes: 3 2 1 2\n",
+            "space directions: (-2,0,0) (0,-1,0) (0,0,3) none\n",
+            "kinds: domain domain domain list\n",
+            "labels: \"\" \"\" \"\" \"time\"\n",
+            "space origin: (-10,5,0)\n",
+            "DataNodeClassName:=vtkMRMLLabelMapVolumeNode\n",
+            "axis 3 index type:=numeric\n",
+            "axis 3 index values:=0 0.3\n",
+            "Segment0_Color:=1 0 0\n",
+            "Segment1_LabelValue:=300\n",
+            "Segment0_Name:=a b\n",
+        ] {
+            assert!(text.contains(want), "{want:?} missing from\n{text}");
+        }
+        let mut raw = Vec::new();
+        flate2::read::GzDecoder::new(&bytes[end..])
+            .read_to_end(&mut raw)
+            .unwrap();
+        let values: Vec<i32> = raw
+            .chunks_exact(2)
+            .map(|c| i32::from(i16::from_le_bytes([c[0], c[1]])))
+            .collect();
+        assert_eq!(values, frames.concat());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn unfinished_or_wrong_sequences_leave_no_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.seq.nrrd");
+        let h = two_classes();
+        let mut w = SequenceWriter::create(&path, &h, &[0.0, 1.0]).unwrap();
+        let e = w.write_frame(&[0, 2, 0, 0, 0, 0]).unwrap_err().to_string();
+        assert!(
+            e.contains("label 2, which no class has") && e.contains("s.seq.nrrd"),
+            "{e}"
+        );
+        w.write_frame(&[0; 6]).unwrap();
+        let e = w.finish().unwrap_err().to_string();
+        assert!(e.contains("1 of 2 frames"), "{e}");
+        let w = SequenceWriter::create(&path, &h, &[0.0]).unwrap();
+        drop(w);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        for times in [&[][..], &[f64::NAN][..]] {
+            assert!(SequenceWriter::create(&path, &h, times).is_err());
+        }
     }
 }

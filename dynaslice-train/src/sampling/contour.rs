@@ -37,35 +37,41 @@ impl ContourBatch {
 }
 
 impl SamplingIndex {
-    /// Replaces `out` with `n` contour samples. Each sample picks a class uniformly (the
-    /// multi-class loss, Eq. 10, weighs classes equally), then a point uniformly by arc length
-    /// over all of that class's contours in all timesteps. No allocation once `out` has grown to
-    /// `n`.
-    pub fn sample_contours(&self, rng: &mut SampleRng, n: usize, out: &mut ContourBatch) {
+    /// Replaces `out` with `per_class[k]` contour samples of each class `k`, drawn uniformly by
+    /// arc length over all of that class's contours in all timesteps. A class without contours
+    /// gets none, whatever its count. No allocation once `out` has grown to the total.
+    pub fn sample_contours(
+        &self,
+        rng: &mut SampleRng,
+        per_class: &[usize],
+        out: &mut ContourBatch,
+    ) {
         out.clear();
-        let k = self.classes.len();
-        for _ in 0..n {
-            let class = &self.classes[rng.below(k)];
-            let total = class.cum_perimeter.last().copied().unwrap_or(0.0);
-            let s = rng.range(0.0, total);
-            let j = class
-                .cum_perimeter
-                .partition_point(|&c| c <= s)
-                .min(class.contoured.len() - 1);
-            let before = if j == 0 {
-                0.0
-            } else {
-                class.cum_perimeter[j - 1]
+        for (k, (class, &n)) in self.classes.iter().zip(per_class).enumerate() {
+            let Some(&total) = class.cum_perimeter.last() else {
+                continue;
             };
-            let a = &self.annotations[class.contoured[j]];
-            let entry = &self.planes[a.plane];
-            let sdf = a.sdf.as_ref().expect("contoured annotations have an SDF");
-            let (p, nrm) = sdf.point_at_arc_length(s - before);
-            out.xyz.push(entry.plane.to_world(p).map(|x| x as f32));
-            out.normal
-                .push(entry.plane.vector_to_world(nrm).map(|x| x as f32));
-            out.t.push(entry.time as f32);
-            out.class.push(a.class);
+            for _ in 0..n {
+                let s = rng.range(0.0, total);
+                let j = class
+                    .cum_perimeter
+                    .partition_point(|&c| c <= s)
+                    .min(class.contoured.len() - 1);
+                let before = if j == 0 {
+                    0.0
+                } else {
+                    class.cum_perimeter[j - 1]
+                };
+                let a = &self.annotations[class.contoured[j]];
+                let entry = &self.planes[a.plane];
+                let sdf = a.sdf.as_ref().expect("contoured annotations have an SDF");
+                let (p, nrm) = sdf.point_at_arc_length(s - before);
+                out.xyz.push(entry.plane.to_world(p).map(|x| x as f32));
+                out.normal
+                    .push(entry.plane.vector_to_world(nrm).map(|x| x as f32));
+                out.t.push(entry.time as f32);
+                out.class.push(k as u32);
+            }
         }
     }
 }

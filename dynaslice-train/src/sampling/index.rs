@@ -92,6 +92,15 @@ impl SamplingIndex {
         }
     }
 
+    /// Each class's total contour length over all planes and timesteps (world units; 0 for a
+    /// class never outlined), which sets its share of a shared sample budget.
+    pub fn contour_lengths(&self) -> Vec<f64> {
+        self.classes
+            .iter()
+            .map(|c| c.cum_perimeter.last().copied().unwrap_or(0.0))
+            .collect()
+    }
+
     /// The exact in-plane signed distance of class `class` at plane coordinates `p` on plane
     /// `plane` (planes numbered in sequence order, timestep by timestep), or `None` if that
     /// plane does not outline the class.

@@ -12,8 +12,9 @@
 //! let diag = (0..3).map(|k| (b.max[k] - b.min[k]).powi(2)).sum::<f64>().sqrt();
 //! let how = PlaneSampling::for_scene(diag);
 //! let mut rng = SampleRng::new(42, step);
-//! index.sample_contours(&mut rng, 4096, &mut contour);
-//! index.sample_planes(&mut rng, 4096, &how, &mut plane);
+//! let per_class = vec![1024; seq.classes().len()];
+//! index.sample_contours(&mut rng, &per_class, &mut contour);
+//! index.sample_planes(&mut rng, &per_class, &how, &mut plane);
 //! sample_space_time(&mut rng, 4096, &b, seq.time_range(), &mut space);
 //! # }
 //! ```

@@ -79,21 +79,25 @@ impl PlaneBatch {
 }
 
 impl SamplingIndex {
-    /// Replaces `out` with `n` plane samples: a class uniformly, then (per
+    /// Replaces `out` with `per_class[k]` plane samples of each class `k`: (per
     /// [`PlaneSampling::absent_fraction`]) one of its absent or contoured annotations uniformly,
     /// then a point per [`PlaneSampling::near_fraction`]. Exact targets cost one grid query each
-    /// ([`dynaslice_data::geometry::PolygonSdf`]). No allocation once `out` has grown to `n`.
+    /// ([`dynaslice_data::geometry::PolygonSdf`]). No allocation once `out` has grown to the total.
     pub fn sample_planes(
         &self,
         rng: &mut SampleRng,
-        n: usize,
+        per_class: &[usize],
         how: &PlaneSampling,
         out: &mut PlaneBatch,
     ) {
         out.clear();
-        let k = self.classes.len();
-        for _ in 0..n {
-            let class = &self.classes[rng.below(k)];
+        let draws = self
+            .classes
+            .iter()
+            .zip(per_class)
+            .filter(|(c, _)| !(c.absent.is_empty() && c.contoured.is_empty()))
+            .flat_map(|(class, &n)| std::iter::repeat_n(class, n));
+        for class in draws {
             let use_absent = !class.absent.is_empty()
                 && (class.contoured.is_empty() || rng.uniform() < how.absent_fraction);
             let list = if use_absent {

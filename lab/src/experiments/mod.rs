@@ -6,6 +6,7 @@
 //!   and the shared model without temporal control, scored on held-out slices.
 //! - [`mod@reference`]: static reconstructions of `.csl` cross-sections against reference meshes.
 //! - [`schedule`]: timed training, the planned schedule against a cut-off one, at equal wall time.
+//! - [`torch_step`]: one training step against the same step in PyTorch, in the same run.
 //!
 //! Every run of one table trains for the same number of steps, calibrated once per input to
 //! take the requested wall time ([`Protocol::steps_for`]): equal compute, and a comparison a busy machine cannot tilt.
@@ -14,6 +15,7 @@ pub mod multiclass;
 pub mod reference;
 pub mod schedule;
 pub mod synthetic;
+pub mod torch_step;
 
 use anyhow::{anyhow, Result};
 use dynaslice_core::{Model, ModelBytes};
@@ -67,6 +69,12 @@ impl Protocol {
     /// Steps of the full method on `seq` that take `self.minutes` on this machine now, from a
     /// short timed run (its first step, which warms caches and allocators, is not counted).
     pub fn steps_for(&self, seq: &Sequence) -> Result<u64> {
+        self.steps_for_minutes(seq, self.minutes)
+    }
+
+    /// Steps of the full method on `seq` that take `minutes` on this machine now, measured as
+    /// [`Protocol::steps_for`] does.
+    pub fn steps_for_minutes(&self, seq: &Sequence, minutes: f64) -> Result<u64> {
         const PROBE: u64 = 6;
         let probe = self.options(seq, PROBE, true, true);
         let mut sampler = DataSampler::new(seq, domain_for(seq), self.counts);
@@ -80,7 +88,7 @@ impl Protocol {
         })?;
         let per_step =
             (start.elapsed() - first.unwrap_or_default()).as_secs_f64() / (PROBE - 1) as f64;
-        Ok(((self.minutes * 60.0 / per_step) as u64).max(1))
+        Ok(((minutes * 60.0 / per_step) as u64).max(1))
     }
 }
 

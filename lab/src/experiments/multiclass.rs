@@ -5,7 +5,9 @@
 //! frames, seen positions) and spatio-temporal (both).
 //!
 //! Every model trains for the same number of steps, calibrated on the shared model, so the
-//! independent models together cost about K times the steps of the shared one. Each one-class
+//! independent models together cost about K times the steps of the shared one; the
+//! equal-time independent models instead share the shared model's wall time (each calibrated
+//! to 1/K of it), the comparison at equal compute. Each one-class
 //! model sees exactly the planes that annotate its class, as the shared model does. Every way
 //! of sharing runs from the same seeds; the table shows means over them, because one seed can
 //! collapse a class (lab/notes/training.md measures it on the real CT case).
@@ -19,10 +21,12 @@ use dynaslice_train::trainer::TrainOptions;
 use std::fmt::Write as _;
 
 /// How the classes share a network.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Sharing {
-    /// One model per class.
+    /// One model per class, each as many steps as the shared model.
     Independent,
+    /// One model per class, all together in the shared model's wall time.
+    IndependentEqualTime,
     /// One K-class model (DynaSlice).
     Shared,
     /// One K-class model, no temporal control.
@@ -34,6 +38,7 @@ impl Sharing {
     pub fn name(self) -> &'static str {
         match self {
             Sharing::Independent => "independent per-class models",
+            Sharing::IndependentEqualTime => "independent, equal total time",
             Sharing::Shared => "one shared model (DynaSlice)",
             Sharing::SharedNoTemporal => "shared, no temporal control",
         }
@@ -83,7 +88,11 @@ impl Case {
 
     /// The ways worth comparing on this input.
     pub fn sharings(&self) -> Vec<Sharing> {
-        let mut v = vec![Sharing::Independent, Sharing::Shared];
+        let mut v = vec![
+            Sharing::Independent,
+            Sharing::IndependentEqualTime,
+            Sharing::Shared,
+        ];
         if self.is_dynamic() {
             v.push(Sharing::SharedNoTemporal);
         }
@@ -95,7 +104,8 @@ impl Case {
         p.steps_for(&self.split.training(&self.seq)?)
     }
 
-    /// Trains and scores one way of sharing from `seed`, `steps` steps per model.
+    /// Trains and scores one way of sharing from `seed`, `steps` steps per model (equal-time
+    /// independent models calibrate their own, 1/K of `p.minutes` each).
     pub fn run(&self, sharing: Sharing, seed: u64, p: &Protocol, steps: u64) -> Result<SharingRun> {
         let train = self.split.training(&self.seq)?;
         let input = format!("input = {}, training split", self.source);
@@ -103,16 +113,32 @@ impl Case {
             seed,
             ..p.options(seq, steps, temporal_control, true)
         };
+        let k = self.seq.classes().len();
+        let one_class = |c: usize| {
+            train
+                .only_class(c)
+                .with_context(|| format!("{}: class {}", self.name, c + 1))
+        };
+        // Equal time: one-class steps cost nearly the same whatever the class (the same
+        // sample counts), so one calibration serves all K.
+        let steps = match sharing {
+            Sharing::IndependentEqualTime => {
+                p.steps_for_minutes(&one_class(0)?, p.minutes / k as f64)?
+            }
+            _ => steps,
+        };
         let (class_iou, seconds) = match sharing {
-            Sharing::Independent => {
+            Sharing::Independent | Sharing::IndependentEqualTime => {
                 let mut rows = Vec::new();
                 let mut seconds = 0.0;
-                for c in 0..self.seq.classes().len() {
-                    let one = train
-                        .only_class(c)
-                        .with_context(|| format!("{}: class {}", self.name, c + 1))?;
+                for c in 0..k {
+                    let one = one_class(c)?;
                     let input = format!("{input}, class {} alone", c + 1);
-                    let fitted = fit(p, &one, &options(&one, true), &input)?;
+                    let options = TrainOptions {
+                        steps,
+                        ..options(&one, true)
+                    };
+                    let fitted = fit(p, &one, &options, &input)?;
                     seconds += fitted.seconds;
                     let h =
                         held_out_class(&fitted.model(), &self.seq, c, &self.split, self.pixels)?;
@@ -172,14 +198,16 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
         s,
         "{} ({k} classes, {} frames, {planes} planes). Withheld: frames {}, planes {} (within \
          each frame); 2D IoU of the Eq. 11 labels on the withheld slices at {} pixels along each \
-         region's longer side. Every model trained {} steps ({} min calibrated on the shared \
-         model, {} threads); mean of the {} seed(s) {:?}.\n",
+         region's longer side. The shared model trained {} steps ({} min calibrated on it, {} \
+         threads); the steps of each model are in the table; mean of the {} seed(s) {:?}.\n",
         case.source,
         case.seq.frames().len(),
         case.split.frames.map_or("none".into(), |r| r.to_string()),
         case.split.planes.map_or("none".into(), |r| r.to_string()),
         case.pixels,
-        runs.first().map_or(0, |r| r.steps),
+        runs_of(runs, Sharing::Shared)
+            .first()
+            .map_or(0, |r| r.steps),
         p.minutes,
         p.options.threads,
         seeds.len(),
@@ -196,8 +224,8 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
     for (_, c) in categories {
         let _ = write!(s, " {c} IoU |");
     }
-    let _ = writeln!(s, " train time | per class |");
-    let _ = writeln!(s, "|---|{}---|---|", "---|".repeat(categories.len()));
+    let _ = writeln!(s, " steps per model | train time | per class |");
+    let _ = writeln!(s, "|---|{}---|---|---|", "---|".repeat(categories.len()));
     for &sharing in &sharings {
         let of = runs_of(runs, sharing);
         let _ = write!(s, "| {} |", sharing.name());
@@ -205,7 +233,12 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
             let _ = write!(s, " {} |", cell(seed_mean(&of, |r| category_iou(r, i)), 3));
         }
         let seconds = seed_mean(&of, |r| Some(r.seconds)).unwrap_or(0.0);
-        let _ = writeln!(s, " {seconds:.0} s | {:.1} s |", seconds / k as f64);
+        let steps = of.first().map_or(0, |r| r.steps);
+        let _ = writeln!(
+            s,
+            " {steps} | {seconds:.0} s | {:.1} s |",
+            seconds / k as f64
+        );
     }
     if seeds.len() > 1 {
         let _ = writeln!(
@@ -304,10 +337,11 @@ mod tests {
                 contour_per_class: 64,
                 plane_per_class: 64,
                 space: 64,
+                ..SampleCounts::default()
             },
             temporal_factor: 1.0,
         };
-        assert_eq!(c.sharings().len(), 3);
+        assert_eq!(c.sharings().len(), 4);
         for sharing in c.sharings() {
             let r = c.run(sharing, 0, &p, 3).unwrap();
             assert_eq!(r.class_iou.len(), 3, "{sharing:?}");
@@ -363,11 +397,13 @@ mod tests {
         // Independent: spatial (0.8 + 0.4) / 2, temporal half of it, spatio-temporal
         // undefined; 33 s over 3 classes.
         assert!(
-            md.contains("| independent per-class models | 0.600 | 0.300 | – | 33 s | 11.0 s |"),
+            md.contains(
+                "| independent per-class models | 0.600 | 0.300 | – | 10 | 33 s | 11.0 s |"
+            ),
             "{md}"
         );
         assert!(
-            md.contains("| one shared model (DynaSlice) | 0.700 | 0.350 | – | 15 s | 5.0 s |"),
+            md.contains("| one shared model (DynaSlice) | 0.700 | 0.350 | – | 10 | 15 s | 5.0 s |"),
             "{md}"
         );
         assert!(md.contains("mean of the 2 seed(s) [0, 1]"), "{md}");
