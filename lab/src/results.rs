@@ -63,6 +63,10 @@ pub struct Args {
         default_value = "independent,independent-equal-time,shared,shared-no-temporal"
     )]
     sharings: Vec<Sharing>,
+    /// Steps of each equal-time independent model, instead of calibrating them to 1/K of
+    /// --minutes (to give them a wall time measured in an earlier run).
+    #[arg(long)]
+    equal_time_steps: Option<u64>,
     /// Classes of the real multi-organ table: the largest labels of the segmentation.
     #[arg(long, default_value_t = 5)]
     organs: usize,
@@ -275,7 +279,8 @@ pub fn run(a: Args) -> Result<()> {
                 }
             }
         }
-        for case in cases {
+        for mut case in cases {
+            case.equal_time_steps = a.equal_time_steps;
             let steps = case.calibrate(&protocol)?;
             report.multiclass.push((case, Vec::new()));
             let i = report.multiclass.len() - 1;
@@ -346,6 +351,7 @@ fn chambers_case(pixels: usize) -> Result<multiclass::Case> {
             }),
         },
         pixels,
+        equal_time_steps: None,
     })
 }
 
@@ -426,5 +432,6 @@ fn organs_case(data: &Path, organs: usize, pixels: usize) -> Result<multiclass::
         seq,
         split,
         pixels,
+        equal_time_steps: None,
     })
 }

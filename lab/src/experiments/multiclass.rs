@@ -71,6 +71,9 @@ pub struct Case {
     pub split: Split,
     /// Pixels along the longer side of each withheld plane's region of interest.
     pub pixels: usize,
+    /// Steps of each equal-time independent model, instead of calibrating them to 1/K of the
+    /// time (to match a wall time measured in an earlier run).
+    pub equal_time_steps: Option<u64>,
 }
 
 /// Every category's per-class IoU of one [`HeldOut`], as rows of `[spatial, temporal, st]`.
@@ -121,8 +124,9 @@ impl Case {
         };
         // Equal time: one-class steps cost nearly the same whatever the class (the same
         // sample counts), so one calibration serves all K.
-        let steps = match sharing {
-            Sharing::IndependentEqualTime => {
+        let steps = match (sharing, self.equal_time_steps) {
+            (Sharing::IndependentEqualTime, Some(given)) => given,
+            (Sharing::IndependentEqualTime, None) => {
                 p.steps_for_minutes(&one_class(0)?, p.minutes / k as f64)?
             }
             _ => steps,
@@ -296,6 +300,7 @@ mod tests {
                 planes: Some("2::3".parse().unwrap()),
             },
             pixels: 24,
+            equal_time_steps: None,
         }
     }
 
