@@ -9,14 +9,14 @@ use super::options::{
     MAX_THREADS, MAX_TIMES,
 };
 use super::output::{Kind, Plan};
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::TimeSeries;
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
 use dynaslice_mesh::{self as mesh, Extraction, Options, Sampling, Surfaces, DEFAULT_SAFETY};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// Arguments of `dynaslice mesh`.
@@ -92,32 +92,6 @@ fn parse_format(s: &str) -> Result<Format, String> {
     Format::from_name(s).ok_or_else(|| format!("unknown format {s:?}; use ply, obj, stl or vtp"))
 }
 
-/// The 0-based channels of the `--class` values (numbers or names), all classes by default.
-fn resolve_classes(model: &Model, path: &Path, wanted: &[String]) -> Result<Vec<usize>> {
-    if wanted.is_empty() {
-        return Ok((0..model.num_classes()).collect());
-    }
-    let mut out = Vec::new();
-    for w in wanted {
-        let Some(k) = model.find_class(w) else {
-            let list: Vec<String> = model
-                .classes()
-                .enumerate()
-                .map(|(i, c)| format!("{} {:?}", i + 1, c.name))
-                .collect();
-            bail!(
-                "{}: no class {w:?}; its classes are {}",
-                path.display(),
-                list.join(", ")
-            );
-        };
-        if !out.contains(&k) {
-            out.push(k);
-        }
-    }
-    Ok(out)
-}
-
 /// The surfaces of `classes` (0-based channels) at world time `t` over the model's bounds: the
 /// one extraction `mesh` and `picture --3d` share. `report` gets one line on its cost (lattice,
 /// evaluations against a dense grid's, seconds).
@@ -166,7 +140,8 @@ fn mesh_all(args: &Args) -> Result<()> {
     }
     let file = ModelFile::open(&args.model)?;
     let model = file.model();
-    let classes = resolve_classes(&model, &args.model, &args.classes)?;
+    let classes = dynaslice_mesh::resolve_classes(&model, &args.classes)
+        .map_err(|e| anyhow!("{}: {e}", args.model.display()))?;
     let names: Vec<String> = model.classes().map(|c| c.name.to_string()).collect();
     let times = match (&args.times, args.time) {
         // The network takes f32 times (the f64 series rounded once).

@@ -197,7 +197,7 @@ fn errors_name_the_file_and_the_problem() {
     for (args, want) in [
         (
             vec!["--time", "0", "--class", "rv"],
-            "no class \"rv\"; its classes are 1 \"ball\", 2 \"small ball\"",
+            "no class \"rv\"; the model's classes are 1 \"ball\", 2 \"small ball\"",
         ),
         (
             vec!["--time", "3"],

@@ -255,7 +255,7 @@ impl PyModel {
         )>,
     > {
         let model = self.model();
-        let channels = resolve_classes(model, &classes)?;
+        let channels = mesh::resolve_classes(model, &classes).map_err(PyValueError::new_err)?;
         let (t0, t1) = model.domain().time_range();
         // As `dynaslice mesh`: the network is only fitted on its time range.
         let slack = 1e-4 * (t1 - t0).abs().max(1e-6);
@@ -424,30 +424,4 @@ fn write_and_read_back(model: &Model, grid: &VoxelGrid, path: &Path) -> anyhow::
     );
     write_model_labels(model, grid, path, |_| {})?;
     Ok(read_volume(path)?.labels)
-}
-
-/// The 0-based channels of class keys (numbers 1..K or names), all classes when empty; the
-/// error lists the model's classes, as `dynaslice mesh --class` does.
-fn resolve_classes(model: &Model, wanted: &[String]) -> PyResult<Vec<usize>> {
-    if wanted.is_empty() {
-        return Ok((0..model.num_classes()).collect());
-    }
-    let mut out = Vec::new();
-    for w in wanted {
-        let Some(k) = model.find_class(w) else {
-            let list: Vec<String> = model
-                .classes()
-                .enumerate()
-                .map(|(i, c)| format!("{} {:?}", i + 1, c.name))
-                .collect();
-            return Err(PyValueError::new_err(format!(
-                "no class {w:?}; the model's classes are {}",
-                list.join(", ")
-            )));
-        };
-        if !out.contains(&k) {
-            out.push(k);
-        }
-    }
-    Ok(out)
 }
