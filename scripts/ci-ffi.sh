@@ -57,8 +57,9 @@ DYNASLICE_REQUIRE_HOSTS=1 cargo test -p dynaslice-ffi
 
 step "release build and install"
 cargo build --release -p dynaslice-ffi --lib --example sphere_fixture
-# The project's own mesher, the reference for the VTK surface (a dev build: the fixture is tiny).
-cargo build -p dynaslice-cli --bin dynaslice
+# The project's own mesher, the reference for the VTK surface. Built with the test profile, so
+# it reuses what `cargo test --workspace` compiled instead of a second copy of every dependency.
+cargo build --profile test -p dynaslice-cli --bin dynaslice
 dynaslice=target/debug/dynaslice
 sh dynaslice-ffi/install.sh "$work/prefix" target/release
 
