@@ -1,6 +1,7 @@
 """Training from Python, meshing and label volumes."""
 
 import _thread
+import signal
 import threading
 
 import numpy as np
@@ -128,13 +129,19 @@ def test_train_errors_and_interrupts(tmp_path):
         dynaslice.train(sections, out, steps=100_000, threads=1, progress=stop_at_once, **SMALL)
     assert (tmp_path / "m.dsm.ckpt").exists() and not out.exists()
 
-    # Ctrl-C (SIGINT's flag, as the terminal sets it) stops, saves and raises.
+    # Ctrl-C (SIGINT's flag, as the terminal sets it) stops, saves and raises. Python's own
+    # SIGINT handler is installed for it: a process started with SIGINT ignored (a background
+    # job, nohup, some CI runners) has none, and there an interrupt rightly does nothing.
     (tmp_path / "m.dsm.ckpt").unlink()
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(1.0, _thread.interrupt_main)
-    timer.start()
-    with pytest.raises(KeyboardInterrupt, match="checkpoint saved to .*m.dsm.ckpt"):
-        dynaslice.train(sections, out, steps=100_000, threads=1, progress=False, **SMALL)
-    timer.join()
+    try:
+        timer.start()
+        with pytest.raises(KeyboardInterrupt, match="checkpoint saved to .*m.dsm.ckpt"):
+            dynaslice.train(sections, out, steps=100_000, threads=1, progress=False, **SMALL)
+    finally:
+        timer.join()
+        signal.signal(signal.SIGINT, previous)
     assert (tmp_path / "m.dsm.ckpt").exists() and not out.exists()
     # ... and resume=True continues from there.
     first = []
