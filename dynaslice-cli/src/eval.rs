@@ -8,10 +8,11 @@ use super::options::{
     count, finite_f32, time_series, MAX_CHAMFER_SAMPLES, MAX_IOU_RESOLUTION, MAX_MESH_RESOLUTION,
     MAX_PIXELS, MAX_TIMES,
 };
-use super::output::{regular_file, write_via, Kind, Plan};
+use super::output::{regular_file, Kind, Plan};
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::format::MAX_CLASSES;
 use dynaslice_data::atomic::write_atomically;
+use dynaslice_data::atomic::write_via;
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::native;
 use dynaslice_data::synth::{BenchmarkOptions, Shape};

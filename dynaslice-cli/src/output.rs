@@ -2,9 +2,9 @@
 //! written, the parent folder exists, never a directory where a file goes (nor a file where a
 //! directory goes), never one of the run's inputs (by file identity, so `./a.json`, a symlink or
 //! a hard link to an input are caught too), never the same path twice in one run, and never an
-//! existing model, training input or label volume unless `--force`. Then [`write_via`] writes
-//! a library's output under a temporary name and renames it into place, so a failed run leaves
-//! neither a partial file nor a damaged old one.
+//! existing model, training input or label volume unless `--force`. Then
+//! [`dynaslice_data::atomic::write_via`] writes a library's output under a temporary name and
+//! renames it into place, so a failed run leaves neither a partial file nor a damaged old one.
 
 use anyhow::{bail, Context, Result};
 use std::ffi::OsStr;
@@ -225,39 +225,6 @@ pub fn regular_file(what: &str, path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Writes `path` through `write`, a writer that takes a path: it writes a temporary file beside
-/// `path` with the same extension (writers pick the format by it), which is synced and renamed
-/// over `path` when `write` succeeds and deleted when it fails.
-pub fn write_via<T>(path: &Path, write: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .with_context(|| format!("{} is not a file path", path.display()))?
-        .to_string_lossy()
-        .into_owned();
-    let lower = name.to_ascii_lowercase();
-    let suffix = if lower.ends_with(".nii.gz") {
-        &name[name.len() - 7..]
-    } else {
-        name.rfind('.').map_or("", |i| &name[i..])
-    };
-    let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(suffix)
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot create a temporary file in {}", dir.display()))?;
-    let value = write(tmp.path())?;
-    std::fs::File::open(tmp.path())
-        .and_then(|f| f.sync_all())
-        .with_context(|| format!("cannot sync {}", tmp.path().display()))?;
-    tmp.persist(path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(value)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -290,23 +257,5 @@ mod tests {
         let csv = dir.path().join("v.csv");
         plan.file("-o", &csv, Kind::Csv).unwrap();
         assert!(plan.beside(&csv).unwrap_err().to_string().contains("twice"));
-    }
-
-    #[test]
-    fn write_via_leaves_nothing_on_failure() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("out.nii.gz");
-        std::fs::write(&path, "old").unwrap();
-        let r: Result<()> = write_via(&path, |tmp| {
-            assert!(tmp.to_string_lossy().ends_with(".nii.gz"));
-            std::fs::write(tmp, "partial")?;
-            bail!("failed")
-        });
-        assert!(r.is_err());
-        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
-        write_via(&path, |tmp| Ok(std::fs::write(tmp, "new")?)).unwrap();
-        assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 }

@@ -12,11 +12,12 @@ use super::options::{
     count, f32_in, non_negative_f64_to, positive_f32, positive_f64_to, MAX_LR, MAX_MINUTES,
     MAX_OMEGA_0, MAX_STEPS, MAX_TEMPORAL_FACTOR, MAX_THREADS, MAX_WEIGHT,
 };
-use super::output::{write_via, Kind, Plan};
+use super::output::{Kind, Plan};
 use super::samples::SampleArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::format::{MAX_SINE_LAYERS, MAX_WIDTH};
 use dynaslice_data::atomic::write_atomically;
+use dynaslice_data::atomic::write_via;
 use dynaslice_figures::plot::{line_chart, Series};
 use dynaslice_train::data_sampler::{domain_for, DataSampler};
 use dynaslice_train::model_file::{check_model_limits, TrainedModel};

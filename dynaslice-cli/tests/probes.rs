@@ -3,8 +3,7 @@
 //! is wrong; no probe may change a byte of any file it was pointed at. Then the static-model,
 //! time-range, completion and manual-page behaviour.
 
-use dynaslice_core::format::ModelWriter;
-use dynaslice_core::Domain;
+use dynaslice_test_support::fixtures::two_organ_model;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -37,26 +36,11 @@ fn run_in(dir: &Path, args: &[String], timeout: Duration) -> Option<Output> {
     Some(child.wait_with_output().unwrap())
 }
 
-/// A small random model of 2 classes over world times 0..0.8 (`omega_t_max` > 0: it moves), or
-/// a static one (`omega_t_max` = 0, as trained on one timestep).
+/// [`two_organ_model`], moving or static, written to `path`.
 fn write_model(path: &Path, moving: bool) {
-    let mut w = ModelWriter::random_siren(&[16, 16], 2, 4);
-    w.classes = vec![("liver".into(), 5), ("spleen".into(), 1)];
-    w.domain = Domain {
-        center: [10.0, 0.0, -5.0],
-        scale: [50.0; 3],
-        time_origin: 0.0,
-        time_span: 0.8,
-        output_scale: 50.0,
-    };
-    if !moving {
-        w.omega_t_max = 0.0;
-    }
-    std::fs::write(path, w.to_bytes()).unwrap();
+    std::fs::write(path, two_organ_model(moving)).unwrap();
 }
 
-/// A native JSON input of one frame and plane: `classes` classes named by `name(k)`, the
-/// square of each at `scale` times unit coordinates.
 fn write_json(path: &Path, classes: usize, name: impl Fn(usize) -> String, scale: f64) {
     let names: Vec<String> = (0..classes)
         .map(|k| format!(r#"{{"name": "{}", "label": {}}}"#, name(k), k + 1))

@@ -1,7 +1,7 @@
 //! `dynaslice info` and `dynaslice query` on a model the test writes, and their errors.
 
-use dynaslice_core::format::ModelWriter;
-use dynaslice_core::{Domain, ModelBytes};
+use dynaslice_core::ModelBytes;
+use dynaslice_test_support::fixtures::two_organ_model;
 use std::process::Command;
 
 fn dynaslice(args: &[&str]) -> (bool, String, String) {
@@ -20,16 +20,7 @@ fn dynaslice(args: &[&str]) -> (bool, String, String) {
 fn info_and_query_report_the_model() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.dsm");
-    let mut w = ModelWriter::random_siren(&[16, 16], 2, 4);
-    w.classes = vec![("liver".into(), 5), ("spleen".into(), 1)];
-    w.domain = Domain {
-        center: [10.0, 0.0, -5.0],
-        scale: [50.0; 3],
-        time_origin: 0.0,
-        time_span: 0.8,
-        output_scale: 50.0,
-    };
-    let bytes = w.to_bytes();
+    let bytes = two_organ_model(true);
     std::fs::write(&path, &bytes).unwrap();
     let p = path.to_str().unwrap();
 

@@ -39,6 +39,7 @@ pub mod rtstruct;
 pub mod sequence;
 pub mod synth;
 pub mod time_series;
+pub mod voxel_type;
 
 pub use error::{DataError, ErrorKind, Location, Result};
 pub use frame_range::FrameRange;

@@ -16,6 +16,7 @@ use super::label_table::LabelTable;
 use super::nifti_stream::{NiftiStream, VolumeHeader};
 use super::reslice::{reslice, ResliceOptions};
 use super::sequence::Sequence;
+use super::voxel_type::VoxelType;
 
 /// A label volume: `frames` frames of `dims` voxels, voxel (i, j, k) of frame f at
 /// `labels[i + nx·(j + ny·(k + nz·f))]`.
@@ -108,7 +109,7 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
             header.datatype
         )))
     })?;
-    let datatype = VoxelType::of(datatype).map_err(at)?;
+    let datatype = voxel_type(datatype).map_err(at)?;
     let (dims, frames) = dimensions(&header).map_err(at)?;
     let affine = affine(&header).map_err(at)?;
     check_scaling(&header).map_err(at)?;
@@ -135,9 +136,12 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
         // stream is an error rather than silently wrong labels.
         std::io::copy(&mut source, &mut std::io::sink()).map_err(|e| unreadable(&e))?;
     }
-    // `raw` holds exactly `size` = voxels × width bytes (checked above), so `decode` yields
+    // `raw` holds exactly `size` = voxels × width bytes (checked above), so decoding yields
     // exactly the voxels the header's dimensions count.
-    let labels = decode(&raw, datatype, header.endianness).map_err(at)?;
+    let mut labels = Vec::new();
+    datatype
+        .decode_into(&raw, header.endianness == Endianness::Big, &mut labels)
+        .map_err(|e| at(ErrorKind::Nifti(e)))?;
     let dt = f64::from(header.pixdim[4]);
     if !dt.is_finite() || dt < 0.0 {
         return Err(at(ErrorKind::Nifti(format!(
@@ -204,47 +208,23 @@ pub fn read_geometry(path: &Path) -> Result<Geometry> {
     })
 }
 
-/// The voxel types a label volume may have: NIfTI's integer types, the only table of them.
-#[derive(Clone, Copy, Debug)]
-enum VoxelType {
-    Uint8,
-    Int8,
-    Uint16,
-    Int16,
-    Uint32,
-    Int32,
-    Uint64,
-    Int64,
-}
-
-impl VoxelType {
-    fn of(t: NiftiType) -> std::result::Result<VoxelType, ErrorKind> {
-        Ok(match t {
-            NiftiType::Uint8 => VoxelType::Uint8,
-            NiftiType::Int8 => VoxelType::Int8,
-            NiftiType::Uint16 => VoxelType::Uint16,
-            NiftiType::Int16 => VoxelType::Int16,
-            NiftiType::Uint32 => VoxelType::Uint32,
-            NiftiType::Int32 => VoxelType::Int32,
-            NiftiType::Uint64 => VoxelType::Uint64,
-            NiftiType::Int64 => VoxelType::Int64,
-            other => {
-                return Err(ErrorKind::Nifti(format!(
-                    "voxel type {other:?} is not an integer type; a label volume needs integer \
-                     labels"
-                )))
-            }
-        })
-    }
-
-    fn bytes(self) -> usize {
-        match self {
-            VoxelType::Uint8 | VoxelType::Int8 => 1,
-            VoxelType::Uint16 | VoxelType::Int16 => 2,
-            VoxelType::Uint32 | VoxelType::Int32 => 4,
-            VoxelType::Uint64 | VoxelType::Int64 => 8,
+/// The label sample type of a NIfTI `datatype`; floating and complex types are refused.
+fn voxel_type(t: NiftiType) -> std::result::Result<VoxelType, ErrorKind> {
+    Ok(match t {
+        NiftiType::Uint8 => VoxelType::Uint8,
+        NiftiType::Int8 => VoxelType::Int8,
+        NiftiType::Uint16 => VoxelType::Uint16,
+        NiftiType::Int16 => VoxelType::Int16,
+        NiftiType::Uint32 => VoxelType::Uint32,
+        NiftiType::Int32 => VoxelType::Int32,
+        NiftiType::Uint64 => VoxelType::Uint64,
+        NiftiType::Int64 => VoxelType::Int64,
+        other => {
+            return Err(ErrorKind::Nifti(format!(
+                "voxel type {other:?} is not an integer type; a label volume needs integer labels"
+            )))
         }
-    }
+    })
 }
 
 /// Where the voxel data lies: (first byte, bytes), checked against the `capacity` of the file
@@ -406,42 +386,6 @@ fn check_scaling(h: &NiftiHeader) -> std::result::Result<(), ErrorKind> {
             h.scl_slope, h.scl_inter
         )))
     }
-}
-
-fn decode(raw: &[u8], t: VoxelType, e: Endianness) -> std::result::Result<Vec<i32>, ErrorKind> {
-    fn words<const N: usize>(raw: &[u8], e: Endianness) -> impl Iterator<Item = [u8; N]> + '_ {
-        raw.chunks_exact(N).map(move |c| {
-            let mut w: [u8; N] = c.try_into().unwrap_or([0; N]);
-            if e == Endianness::Big {
-                w.reverse();
-            }
-            w
-        })
-    }
-    let wide = |v: i128| {
-        i32::try_from(v)
-            .map_err(|_| ErrorKind::Nifti(format!("label value {v} does not fit in i32")))
-    };
-    Ok(match t {
-        VoxelType::Uint8 => raw.iter().map(|&b| i32::from(b)).collect(),
-        VoxelType::Int8 => raw.iter().map(|&b| i32::from(b as i8)).collect(),
-        VoxelType::Int16 => words::<2>(raw, e)
-            .map(|w| i32::from(i16::from_le_bytes(w)))
-            .collect(),
-        VoxelType::Uint16 => words::<2>(raw, e)
-            .map(|w| i32::from(u16::from_le_bytes(w)))
-            .collect(),
-        VoxelType::Int32 => words::<4>(raw, e).map(i32::from_le_bytes).collect(),
-        VoxelType::Uint32 => words::<4>(raw, e)
-            .map(|w| wide(i128::from(u32::from_le_bytes(w))))
-            .collect::<std::result::Result<_, _>>()?,
-        VoxelType::Int64 => words::<8>(raw, e)
-            .map(|w| wide(i128::from(i64::from_le_bytes(w))))
-            .collect::<std::result::Result<_, _>>()?,
-        VoxelType::Uint64 => words::<8>(raw, e)
-            .map(|w| wide(i128::from(u64::from_le_bytes(w))))
-            .collect::<std::result::Result<_, _>>()?,
-    })
 }
 
 /// Writes `volume` as NIfTI-1 (gzip-compressed when `path` ends in `.gz`) through

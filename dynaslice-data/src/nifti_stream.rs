@@ -18,6 +18,7 @@
 //! frame is in, so an interrupted run never leaves a truncated volume under the real name.
 
 use crate::nifti::HEADER_SIZE;
+use crate::voxel_type::VoxelType;
 use anyhow::{bail, ensure, Context, Result};
 use flate2::write::GzEncoder;
 use std::fs::File;
@@ -33,30 +34,20 @@ const XFORM_ALIGNED: i16 = 2;
 /// Size of `descrip`, including its terminating NUL.
 const DESCRIPTION_BYTES: usize = 80;
 
-/// Voxel type of a label volume.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum LabelType {
-    /// NIfTI datatype 4, 2 bytes per voxel.
-    Int16,
-    /// NIfTI datatype 8, 4 bytes per voxel.
-    Int32,
-}
+/// The types the writer offers, narrowest first: int16 when every label fits, else int32.
+const OFFERED: [VoxelType; 2] = [VoxelType::Int16, VoxelType::Int32];
 
-impl LabelType {
-    /// The narrower type that holds every value in `lo..=hi`.
-    pub fn for_range(lo: i32, hi: i32) -> LabelType {
-        if lo >= i32::from(i16::MIN) && hi <= i32::from(i16::MAX) {
-            LabelType::Int16
-        } else {
-            LabelType::Int32
-        }
-    }
-
-    fn code_and_bits(self) -> (i16, i16) {
-        match self {
-            LabelType::Int16 => (4, 16),
-            LabelType::Int32 => (8, 32),
-        }
+/// NIfTI-1's `datatype` code of `t`.
+fn nifti_datatype(t: VoxelType) -> i16 {
+    match t {
+        VoxelType::Uint8 => 2,
+        VoxelType::Int16 => 4,
+        VoxelType::Int32 => 8,
+        VoxelType::Int8 => 256,
+        VoxelType::Uint16 => 512,
+        VoxelType::Uint32 => 768,
+        VoxelType::Int64 => 1024,
+        VoxelType::Uint64 => 1280,
     }
 }
 
@@ -98,7 +89,7 @@ pub struct NiftiStream {
     path: PathBuf,
     tmp: PathBuf,
     sink: Option<Sink>,
-    label_type: LabelType,
+    label_type: VoxelType,
     label_range: (i32, i32),
     voxels_per_frame: usize,
     frames: usize,
@@ -147,7 +138,8 @@ impl NiftiStream {
         } else {
             Sink::Plain(file)
         };
-        let label_type = LabelType::for_range(lo, hi);
+        // Int32 holds every i32.
+        let label_type = VoxelType::narrowest(lo, hi, &OFFERED).unwrap_or(VoxelType::Int32);
         let mut stream = NiftiStream {
             path: path.to_path_buf(),
             tmp,
@@ -165,7 +157,7 @@ impl NiftiStream {
     }
 
     /// The voxel type chosen from the label range.
-    pub fn label_type(&self) -> LabelType {
+    pub fn label_type(&self) -> VoxelType {
         self.label_type
     }
 
@@ -196,13 +188,8 @@ impl NiftiStream {
         }
         let mut buffer = std::mem::take(&mut self.buffer);
         buffer.clear();
-        match self.label_type {
-            // In range by the check above, so the narrowing is exact.
-            LabelType::Int16 => labels
-                .iter()
-                .for_each(|&v| buffer.extend((v as i16).to_le_bytes())),
-            LabelType::Int32 => labels.iter().for_each(|&v| buffer.extend(v.to_le_bytes())),
-        }
+        // In range by the check above, so the narrowing is exact.
+        self.label_type.encode_le_into(labels, &mut buffer);
         let result = self.write_bytes(&buffer);
         self.buffer = buffer;
         result?;
@@ -253,7 +240,7 @@ impl Drop for NiftiStream {
 }
 
 /// The 348-byte header and the empty extension flag.
-fn encode_header(h: &VolumeHeader, label_type: LabelType) -> [u8; VOX_OFFSET] {
+fn encode_header(h: &VolumeHeader, label_type: VoxelType) -> [u8; VOX_OFFSET] {
     let mut b = [0u8; VOX_OFFSET];
     let mut put =
         |offset: usize, bytes: &[u8]| b[offset..offset + bytes.len()].copy_from_slice(bytes);
@@ -263,7 +250,7 @@ fn encode_header(h: &VolumeHeader, label_type: LabelType) -> [u8; VOX_OFFSET] {
             .flat_map(|&x| (x as f32).to_le_bytes())
             .collect::<Vec<u8>>()
     };
-    let (datatype, bitpix) = label_type.code_and_bits();
+    let (datatype, bitpix) = (nifti_datatype(label_type), 8 * label_type.bytes() as i16);
     let [nx, ny, nz] = h.dims.map(|n| n as i16);
     let rank = if h.frames > 1 { 4 } else { 3 };
     let a = h.affine;
@@ -464,8 +451,9 @@ mod tests {
                 .to_string_lossy()
                 .ends_with(".tmp")));
         }
-        let kinds = [(0, 7), (-40000, 40000)].map(|(lo, hi)| LabelType::for_range(lo, hi));
-        assert_eq!(kinds, [LabelType::Int16, LabelType::Int32]);
+        let kinds =
+            [(0, 7), (-40000, 40000)].map(|(lo, hi)| VoxelType::narrowest(lo, hi, &OFFERED));
+        assert_eq!(kinds, [Some(VoxelType::Int16), Some(VoxelType::Int32)]);
     }
 
     /// The qform alone (sform_code patched to 0) gives the same affine through the reader's

@@ -337,8 +337,6 @@ mod tests {
             }
         }
         assert_eq!(mismatched, 0);
-        use dynaslice_data::nifti_stream::LabelType;
-        assert_eq!(LabelType::for_range(0, 500), LabelType::Int16);
     }
 
     /// The companion files: named by `output_files`, written beside a NIfTI volume and a

@@ -288,13 +288,10 @@ pub fn run(a: Args) -> Result<()> {
                 let sharings = report.multiclass[i].0.sharings();
                 for sharing in sharings.into_iter().filter(|s| a.sharings.contains(s)) {
                     let case = &report.multiclass[i].0;
-                    eprintln!(
-                        "{} / {} / seed {seed}: {steps} steps per model",
-                        case.name,
-                        sharing.name()
-                    );
+                    eprintln!("{} / {} / seed {seed}", case.name, sharing.name());
+                    // The run reports its own steps: equal-time independents calibrate theirs.
                     let run = case.run(sharing, seed, &protocol, steps)?;
-                    eprintln!("  {:.0} s", run.seconds);
+                    eprintln!("  {} steps per model, {:.0} s", run.steps, run.seconds);
                     report.multiclass[i].1.push(run);
                     report.write(&a.output)?;
                 }

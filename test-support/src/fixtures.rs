@@ -1,9 +1,33 @@
 //! Input fixtures and process helpers of the reader and command-line tests: .csl files
-//! ([`csl_file`] and its plane records), the ball .csl sequence, [`succeeded`], and the shared
-//! data beside the repository ([`shared_data`]).
+//! ([`csl_file`] and its plane records), the ball .csl sequence, the two-organ model of the
+//! command-line tests ([`two_organ_model`]), [`succeeded`], and the shared data beside the
+//! repository ([`shared_data`]).
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
+
+use dynaslice_core::format::ModelWriter;
+use dynaslice_core::Domain;
+
+/// The model file of a small random network of 2 classes, "liver" (source label 5) and
+/// "spleen" (1), hidden widths [16, 16], centred at (10, 0, -5) mm with 50 mm scale, over world
+/// times 0..0.8: moving (its temporal frequency bound from seed 4), or static (`omega_t_max` =
+/// 0, as a model trained on one timestep is).
+pub fn two_organ_model(moving: bool) -> Vec<u8> {
+    let mut w = ModelWriter::random_siren(&[16, 16], 2, 4);
+    w.classes = vec![("liver".into(), 5), ("spleen".into(), 1)];
+    w.domain = Domain {
+        center: [10.0, 0.0, -5.0],
+        scale: [50.0; 3],
+        time_origin: 0.0,
+        time_span: 0.8,
+        output_scale: 50.0,
+    };
+    if !moving {
+        w.omega_t_max = 0.0;
+    }
+    w.to_bytes()
+}
 
 /// A .csl file (the CSLC text format of `dynaslice_data::csl`): the header, with the plane count
 /// and `labels` (the label count, informational), then the records of `planes`, each ending in

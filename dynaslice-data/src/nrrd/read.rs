@@ -9,6 +9,7 @@ use super::{flip_xy, unescape, MAX_ELEMENTS};
 use crate::error::{DataError, ErrorKind, Result};
 use crate::label_table::LabelTable;
 use crate::nifti::{det3, LabelVolume};
+use crate::voxel_type::VoxelType;
 
 /// Deflate's largest expansion (one 258-byte match per two bits): n bytes of gzip cannot hold
 /// more than this × n bytes of data.
@@ -253,68 +254,44 @@ fn check_magic(line: &[u8]) -> Result<()> {
     }
 }
 
-/// Sample types: NRRD's integer types; floating types are refused (labels are integers).
-#[derive(Clone, Copy, Debug)]
-enum VoxelType {
-    Uint8,
-    Int8,
-    Uint16,
-    Int16,
-    Uint32,
-    Int32,
-    Uint64,
-    Int64,
-}
-
-impl VoxelType {
-    fn parse(f: &Field) -> Result<VoxelType> {
-        let name = f
-            .value
-            .split_whitespace()
-            .collect::<Vec<_>>()
-            .join(" ")
-            .to_ascii_lowercase();
-        Ok(match name.as_str() {
-            "signed char" | "int8" | "int8_t" => VoxelType::Int8,
-            "uchar" | "unsigned char" | "uint8" | "uint8_t" => VoxelType::Uint8,
-            "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
-                VoxelType::Int16
-            }
-            "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => {
-                VoxelType::Uint16
-            }
-            "int" | "signed int" | "int32" | "int32_t" => VoxelType::Int32,
-            "uint" | "unsigned int" | "uint32" | "uint32_t" => VoxelType::Uint32,
-            "longlong"
-            | "long long"
-            | "long long int"
-            | "signed long long"
-            | "signed long long int"
-            | "int64"
-            | "int64_t" => VoxelType::Int64,
-            "ulonglong"
-            | "unsigned long long"
-            | "unsigned long long int"
-            | "uint64"
-            | "uint64_t" => VoxelType::Uint64,
-            "float" | "double" | "block" => {
-                return Err(f.error(
-                    "type",
-                    "not an integer type; a label map needs integer labels",
-                ))
-            }
-            _ => return Err(f.error("type", "not an NRRD type")),
-        })
-    }
-
-    fn bytes(self) -> usize {
-        match self {
-            VoxelType::Uint8 | VoxelType::Int8 => 1,
-            VoxelType::Uint16 | VoxelType::Int16 => 2,
-            VoxelType::Uint32 | VoxelType::Int32 => 4,
-            VoxelType::Uint64 | VoxelType::Int64 => 8,
+/// The label sample type of an NRRD `type` field; floating types are refused (labels are
+/// integers).
+fn voxel_type(f: &Field) -> Result<VoxelType> {
+    let name = f
+        .value
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+        .to_ascii_lowercase();
+    Ok(match name.as_str() {
+        "signed char" | "int8" | "int8_t" => VoxelType::Int8,
+        "uchar" | "unsigned char" | "uint8" | "uint8_t" => VoxelType::Uint8,
+        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
+            VoxelType::Int16
         }
-    }
+        "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => {
+            VoxelType::Uint16
+        }
+        "int" | "signed int" | "int32" | "int32_t" => VoxelType::Int32,
+        "uint" | "unsigned int" | "uint32" | "uint32_t" => VoxelType::Uint32,
+        "longlong"
+        | "long long"
+        | "long long int"
+        | "signed long long"
+        | "signed long long int"
+        | "int64"
+        | "int64_t" => VoxelType::Int64,
+        "ulonglong" | "unsigned long long" | "unsigned long long int" | "uint64" | "uint64_t" => {
+            VoxelType::Uint64
+        }
+        "float" | "double" | "block" => {
+            return Err(f.error(
+                "type",
+                "not an integer type; a label map needs integer labels",
+            ))
+        }
+        _ => return Err(f.error("type", "not an NRRD type")),
+    })
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -363,7 +340,7 @@ impl Layout {
     }
 
     fn of(path: &Path, h: &Header) -> Result<Layout> {
-        let voxel = VoxelType::parse(h.required("type")?)?;
+        let voxel = voxel_type(h.required("type")?)?;
         let f = h.required("encoding")?;
         let encoding = match f.value.to_ascii_lowercase().as_str() {
             "raw" => Encoding::Raw,
@@ -1001,45 +978,11 @@ fn decode(
         filled += n;
         got += n;
         let whole = filled / width * width;
-        push_samples(&buf[..whole], t, big, &mut out)?;
+        t.decode_into(&buf[..whole], big, &mut out)?;
         buf.copy_within(whole..filled, 0);
         filled -= whole;
     }
     Ok((out, got))
-}
-
-fn push_samples(
-    bytes: &[u8],
-    t: VoxelType,
-    big: bool,
-    out: &mut Vec<i32>,
-) -> std::result::Result<(), String> {
-    fn words<const N: usize>(
-        bytes: &[u8],
-        big: bool,
-        out: &mut Vec<i32>,
-        value: impl Fn([u8; N]) -> i128,
-    ) -> std::result::Result<(), String> {
-        for c in bytes.chunks_exact(N) {
-            let mut w: [u8; N] = c.try_into().expect("chunks of N bytes");
-            if big {
-                w.reverse();
-            }
-            let v = value(w);
-            out.push(i32::try_from(v).map_err(|_| format!("label value {v} does not fit in i32"))?);
-        }
-        Ok(())
-    }
-    match t {
-        VoxelType::Uint8 => words::<1>(bytes, big, out, |w| i128::from(w[0])),
-        VoxelType::Int8 => words::<1>(bytes, big, out, |w| i128::from(w[0] as i8)),
-        VoxelType::Uint16 => words(bytes, big, out, |w| i128::from(u16::from_le_bytes(w))),
-        VoxelType::Int16 => words(bytes, big, out, |w| i128::from(i16::from_le_bytes(w))),
-        VoxelType::Uint32 => words(bytes, big, out, |w| i128::from(u32::from_le_bytes(w))),
-        VoxelType::Int32 => words(bytes, big, out, |w| i128::from(i32::from_le_bytes(w))),
-        VoxelType::Uint64 => words(bytes, big, out, |w| i128::from(u64::from_le_bytes(w))),
-        VoxelType::Int64 => words(bytes, big, out, |w| i128::from(i64::from_le_bytes(w))),
-    }
 }
 
 /// The samples in our order (x fastest, then y, z, frame) and the frame count; the layers of a

@@ -14,6 +14,7 @@ use crate::error::{DataError, ErrorKind, Result};
 use crate::nifti::det3;
 use crate::palette::palette;
 use crate::sequence::ClassInfo;
+use crate::voxel_type::VoxelType;
 
 /// What a segmentation file describes besides its voxels.
 #[derive(Debug, Clone, PartialEq)]
@@ -74,11 +75,21 @@ fn name_and_stem(path: &Path) -> (String, usize) {
     (name, stem)
 }
 
-/// The voxel type of a file: NRRD's name and bytes per voxel.
-#[derive(Clone, Copy)]
-struct VoxelType {
-    name: &'static str,
-    width: usize,
+/// The types the writer offers, narrowest first (ITK and 3D Slicer read all three).
+const OFFERED: [VoxelType; 3] = [VoxelType::Uint8, VoxelType::Int16, VoxelType::Int32];
+
+/// NRRD's name of `t`, as teem and 3D Slicer write it.
+fn type_name(t: VoxelType) -> &'static str {
+    match t {
+        VoxelType::Uint8 => "unsigned char",
+        VoxelType::Int8 => "signed char",
+        VoxelType::Uint16 => "unsigned short",
+        VoxelType::Int16 => "short",
+        VoxelType::Uint32 => "unsigned int",
+        VoxelType::Int32 => "int",
+        VoxelType::Uint64 => "unsigned long long",
+        VoxelType::Int64 => "long long",
+    }
 }
 
 /// Checks `h` and returns the voxels per frame and the voxel type: the narrowest of `unsigned
@@ -115,14 +126,9 @@ fn check_header(h: &SegmentationHeader) -> std::result::Result<(usize, VoxelType
         .classes
         .iter()
         .fold((0, 0), |(lo, hi), c| (c.label.min(lo), c.label.max(hi)));
-    let (name, width) = if lo >= 0 && hi <= i32::from(u8::MAX) {
-        ("unsigned char", 1)
-    } else if lo >= i32::from(i16::MIN) && hi <= i32::from(i16::MAX) {
-        ("short", 2)
-    } else {
-        ("int", 4)
-    };
-    Ok((voxels, VoxelType { name, width }))
+    // Int32 holds every i32.
+    let t = VoxelType::narrowest(lo, hi, &OFFERED).unwrap_or(VoxelType::Int32);
+    Ok((voxels, t))
 }
 
 /// An error unless `labels` has one value per voxel, each 0 or a class's label.
@@ -168,7 +174,7 @@ fn header_text(h: &SegmentationHeader, t: VoxelType, times: Option<&[f64]>) -> S
         text.push_str(&s);
         text.push('\n');
     };
-    line(format!("type: {}", t.name));
+    line(format!("type: {}", type_name(t)));
     let directions = format!("{} {} {}", column(0), column(1), column(2));
     match times {
         None => {
@@ -187,7 +193,7 @@ fn header_text(h: &SegmentationHeader, t: VoxelType, times: Option<&[f64]>) -> S
             line("labels: \"\" \"\" \"\" \"time\"".into());
         }
     }
-    if t.width > 1 {
+    if t.bytes() > 1 {
         line("endian: little".into());
     }
     line("encoding: gzip".into());
@@ -240,13 +246,7 @@ fn header_text(h: &SegmentationHeader, t: VoxelType, times: Option<&[f64]>) -> S
 /// 0 or a class label, all within the type's range ([`check_header`], [`check_labels`]).
 fn encode_voxels(labels: &[i32], t: VoxelType, out: &mut Vec<u8>) {
     out.clear();
-    match t.width {
-        1 => out.extend(labels.iter().map(|&v| v as u8)),
-        2 => labels
-            .iter()
-            .for_each(|&v| out.extend((v as i16).to_le_bytes())),
-        _ => labels.iter().for_each(|&v| out.extend(v.to_le_bytes())),
-    }
+    t.encode_le_into(labels, out);
 }
 
 /// The whole file: header text, then the gzip-compressed voxels.
