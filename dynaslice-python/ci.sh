@@ -20,7 +20,7 @@ step "venv $venv"
 python3 -m venv "$venv"
 py="$venv/bin/python"
 "$py" -m pip install --quiet --disable-pip-version-check --upgrade pip
-"$py" -m pip install --quiet --disable-pip-version-check maturin pytest numpy nibabel trimesh
+"$py" -m pip install --quiet --disable-pip-version-check maturin pytest numpy nibabel trimesh pyvista
 
 step "pip install ./dynaslice-python (release build)"
 t0=$(date +%s)

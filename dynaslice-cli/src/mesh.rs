@@ -26,7 +26,9 @@ File names: with --time, one class is written to OUT itself; several classes go 
 STEM_classK_NAME.EXT (e.g. -o t.ply writes t_class1_liver.ply, t_class2_spleen.ply), NAME the
 class name reduced to letters, digits and '-'. With --times, OUT is a directory of
 classK_NAME_tIIII.EXT files (IIII the time's index), plus series.pvd for ParaView (vtp).
-A static model (trained on one timestep) needs no --time.")]
+A static model (trained on one timestep) needs no --time.
+PLY and VTP vertices carry the class colour (the training input's, else the palette's): PLY
+red/green/blue, VTP point data Colors. OBJ and STL carry none.")]
 pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
@@ -143,6 +145,7 @@ fn mesh_all(args: &Args) -> Result<()> {
     let classes = dynaslice_mesh::resolve_classes(&model, &args.classes)
         .map_err(|e| anyhow!("{}: {e}", args.model.display()))?;
     let names: Vec<String> = model.classes().map(|c| c.name.to_string()).collect();
+    let colors = file.class_colors();
     let times = match (&args.times, args.time) {
         // The network takes f32 times (the f64 series rounded once).
         (Some(series), _) => series.times().into_iter().map(|t| t as f32).collect(),
@@ -234,7 +237,7 @@ fn mesh_all(args: &Args) -> Result<()> {
                 path.display()
             ));
             let class = model.class(k as u32 + 1)?;
-            files.write(i, t, k, class, mesh)?;
+            files.write(i, t, k, class, colors[k], mesh)?;
         }
         if let Some(bar) = &bar {
             bar.inc(1);

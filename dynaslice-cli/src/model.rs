@@ -5,7 +5,7 @@ use super::output::regular_file;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::{Model, ModelBytes};
 use dynaslice_data::{palette, ClassInfo};
-use dynaslice_train::model_file::parse_class_colors;
+use dynaslice_train::model_file::recorded_class_colors;
 use std::path::{Path, PathBuf};
 
 /// A model file read from disk and validated.
@@ -44,22 +44,20 @@ impl ModelFile {
     /// written before the line existed have no colours.
     pub fn classes(&self) -> Vec<ClassInfo> {
         let model = self.model();
-        let recorded = parse_class_colors(model.metadata()).unwrap_or_else(|e| {
+        let recorded = recorded_class_colors(&model).unwrap_or_else(|e| {
             log::warn!(
                 "{}: {e}; the classes take the palette's colours",
                 self.path.display()
             );
-            Vec::new()
+            vec![None; model.num_classes()]
         });
         model
             .classes()
-            .map(|c| ClassInfo {
+            .zip(recorded)
+            .map(|(c, color)| ClassInfo {
                 name: c.name.to_string(),
                 label: c.label,
-                color: recorded
-                    .iter()
-                    .find(|&&(label, _)| label == c.label)
-                    .map(|&(_, color)| color),
+                color,
             })
             .collect()
     }

@@ -5,6 +5,7 @@
 //! against closed forms, and the command line's files and errors.
 
 use dynaslice_core::ModelBytes;
+use dynaslice_data::palette::class_color;
 use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
 use dynaslice_test_support::spheres::{self, Sphere, SPHERES_DOMAIN};
 use std::f64::consts::PI;
@@ -133,9 +134,25 @@ fn writes_one_file_per_class_in_every_format() {
         assert!(o.status.success(), "{stderr}");
         assert!(stderr.contains("value + ") && stderr.contains("dense grid: 35937 values"));
         assert!(!stderr.contains("NOT a closed manifold"), "{stderr}");
-        for tag in ["class1_ball", "class2_small-ball"] {
+        for (k, tag) in ["class1_ball", "class2_small-ball"].iter().enumerate() {
             let file = dir.path().join(format!("heart_{tag}.{ext}"));
             assert!(std::fs::metadata(&file).unwrap().len() > 1000, "{file:?}");
+            if ext == "ply" {
+                // The class colour (the palette's: the model records none) on every vertex,
+                // after x y z nx ny nz normal_velocity.
+                let bytes = std::fs::read(&file).unwrap();
+                let end = b"end_header\n";
+                let at = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+                let header = String::from_utf8_lossy(&bytes[..at]);
+                assert!(
+                    header.contains(
+                        "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+                    ),
+                    "{header}"
+                );
+                let vertex = &bytes[at..at + 7 * 4 + 3];
+                assert_eq!(vertex[28..], class_color(k, None), "{file:?}");
+            }
         }
     }
     // One class by name: exactly the path given.

@@ -55,6 +55,8 @@ fn uv_sphere(centre: [f32; 3], radius: f32, n: u32) -> Mesh {
 /// An off-centre sphere (RAS): its centre must come out as (x, y, z) in RAS files and
 /// (−x, −y, z) in LPS ones.
 const CENTRE: [f32; 3] = [30.0, -20.0, 12.0];
+/// A class colour (sRGB) that every vertex of a coloured format must carry.
+const COLOR: [u8; 3] = [230, 25, 75];
 
 #[test]
 fn sphere_is_outward_and_closed_in_rust() {
@@ -76,7 +78,8 @@ fn every_format_and_frame_reads_back_where_it_belongs() {
                 .join(format!("sphere_{space}.{}", format.extension()));
             let info = MeshInfo::new("left ventricle", space)
                 .with_label(3)
-                .with_time(0.5);
+                .with_time(0.5)
+                .with_color(COLOR);
             write(&path, &mesh, format, &info).unwrap();
             paths.push(path);
         }
@@ -131,10 +134,15 @@ for path in sys.argv[1:]:
         velocity = vtk_to_numpy(poly.GetPointData().GetArray('normal_velocity'))
         centre = (points.min(0) + points.max(0)) / 2
         outward = float(np.min(np.sum(normals * (points - centre), 1)))
+        colors = vtk_to_numpy(poly.GetPointData().GetArray('Colors'))
+        print('colour', path, len(colors), *np.unique(colors, axis=0).ravel())
         print(path, 'SPACE=' + space, name, int(label), time,
               poly.GetNumberOfPolys(), outward, float(velocity.max()), *centre)
     else:
         m = trimesh.load(path, force='mesh', process=False)
+        if path.endswith('.ply'):
+            colors = m.visual.vertex_colors[:, :3]
+            print('colour', path, len(colors), *np.unique(colors, axis=0).ravel())
         centre = (m.bounds[0] + m.bounds[1]) / 2
         # A positive volume means the winding is outward in the file's frame too.
         print(path, tag_of(path), len(m.faces), float(m.volume), *centre)
@@ -143,7 +151,15 @@ for path in sys.argv[1:]:
         return;
     };
     let triangles = mesh.triangles.len();
-    for line in out.lines() {
+    // Every vertex of the PLY (read by trimesh) and VTP (read by VTK) files has the colour.
+    let colours: Vec<&str> = out.lines().filter(|l| l.starts_with("colour ")).collect();
+    assert_eq!(colours.len(), 4, "{out}");
+    for line in colours {
+        let fields: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!(fields[2], mesh.positions.len().to_string(), "{line}");
+        assert_eq!(fields[3..], ["230", "25", "75"], "{line}");
+    }
+    for line in out.lines().filter(|l| !l.starts_with("colour ")) {
         let (path, rest) = line.split_once(' ').unwrap();
         let space = if path.contains("_lps.") {
             Space::Lps
@@ -187,7 +203,7 @@ for path in sys.argv[1:]:
             assert!(volume > 0.97 * sphere && volume < sphere, "{line}");
         }
     }
-    assert_eq!(out.lines().count(), 8, "{out}");
+    assert_eq!(out.lines().count(), 8 + 4, "{out}");
 }
 
 #[test]
@@ -208,7 +224,7 @@ fn paraview_collection_names_blocks_and_vtp_field_data_agree() {
     for (i, t) in [0.0f32, 0.25].into_iter().enumerate() {
         for (k, class) in classes.iter().enumerate() {
             let sphere = uv_sphere([k as f32 * 30.0, 0.0, t * 10.0], 5.0, 8);
-            files.write(i, t, k, *class, &sphere).unwrap();
+            files.write(i, t, k, *class, COLOR, &sphere).unwrap();
         }
     }
     let pvd = files.finish().unwrap().unwrap();

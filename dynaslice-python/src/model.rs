@@ -4,13 +4,16 @@ use crate::batch::{self, Answers, PointsArg, Query, TimesArg};
 use crate::{core_error, detach_result, pool, DynasliceError};
 use dynaslice_core::{Model, ModelBytes};
 use dynaslice_data::nifti::{read_geometry, read_volume};
+use dynaslice_data::palette;
 use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
+use dynaslice_train::model_file::recorded_class_colors;
 use dynaslice_volume::{label_indices, source_labels, write_model_labels, VoxelGrid};
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
+use std::ffi::CString;
 use std::path::{Path, PathBuf};
 
 self_cell::self_cell!(
@@ -29,6 +32,12 @@ impl Loaded {
             .map_err(|e| DynasliceError::new_err(format!("{source}: {e}")))
     }
 }
+
+/// (name, source label value, recorded colour): one class as Python sees it.
+type ClassRecord = (String, i32, Option<Rgb>);
+
+/// A colour (r, g, b), a tuple in Python.
+type Rgb = (u8, u8, u8);
 
 /// A DynaSlice model: one network f: R³ × [t₀, t₁] → R^K, one signed distance per class
 /// (negative inside), in world units (the RAS frame of the images it was trained on).
@@ -113,13 +122,52 @@ impl PyModel {
         self.model().num_classes()
     }
 
-    /// [(name, source label value)] of classes 1..K, in channel order.
+    /// [(name, source label value, recorded colour or None)] of classes 1..K, in channel
+    /// order: the colours the training input gave the classes, as the file records them. A
+    /// malformed record warns (UserWarning) and counts as none.
     #[getter]
-    fn class_records(&self) -> Vec<(String, i32)> {
-        self.model()
+    fn class_records(&self, py: Python<'_>) -> PyResult<Vec<ClassRecord>> {
+        let model = self.model();
+        let recorded = match recorded_class_colors(model) {
+            Ok(colors) => colors,
+            Err(e) => {
+                let message = format!("{e}; the classes take the palette's colours");
+                PyErr::warn(
+                    py,
+                    &py.get_type::<PyUserWarning>(),
+                    &CString::new(message)?,
+                    1,
+                )?;
+                vec![None; model.num_classes()]
+            }
+        };
+        Ok(model
             .classes()
-            .map(|c| (c.name.to_string(), c.label))
-            .collect()
+            .zip(recorded)
+            .map(|(c, color)| {
+                (
+                    c.name.to_string(),
+                    c.label,
+                    color.map(|[r, g, b]| (r, g, b)),
+                )
+            })
+            .collect())
+    }
+
+    /// [(r, g, b)] of classes 1..K: the colour each is shown in, its recorded colour
+    /// (`class_records`) or else the palette's for its channel, as in every output of the
+    /// command line (mesh files, colour tables, segmentations, pictures).
+    #[getter]
+    fn class_colors(&self, py: Python<'_>) -> PyResult<Vec<Rgb>> {
+        Ok(self
+            .class_records(py)?
+            .into_iter()
+            .enumerate()
+            .map(|(k, (_, _, color))| {
+                let [r, g, b] = palette::class_color(k, color.map(|(r, g, b)| [r, g, b]));
+                (r, g, b)
+            })
+            .collect())
     }
 
     /// ((xmin, ymin, zmin), (xmax, ymax, zmax)): the training domain's box, world units.

@@ -47,14 +47,15 @@ def points_in(model, n, seed=0, dtype=np.float32):
 
 def write_sphere_sections(path, frames=3, planes=5):
     """Native JSON cross-sections of a ball of radius 0.35 + 0.1·t about the origin (world
-    units), with a second class, a small ball at x = 0.7 of radius 0.2, cut by z-planes at
-    `frames` times in [0, 1]."""
+    units; colour (200, 30, 60)), with a second class, a small ball at x = 0.7 of radius 0.2
+    (no colour), cut by z-planes at `frames` times in [0, 1]."""
     def circle(cx, cy, r, n=48):
         return [[cx + r * math.cos(2 * math.pi * i / n), cy + r * math.sin(2 * math.pi * i / n)]
                 for i in range(n)]
 
     out = {"format": "dynaslice-sections", "version": 1,
-           "classes": [{"name": "ball", "label": 3}, {"name": "moon", "label": 7}],
+           "classes": [{"name": "ball", "label": 3, "color": [200, 30, 60]},
+                       {"name": "moon", "label": 7}],
            "frames": []}
     for f in range(frames):
         t = f / max(frames - 1, 1)

@@ -17,6 +17,8 @@ def test_description(model, model_path):
     assert loaded.num_classes == 2
     assert loaded.classes == [(name, label, None) for name, label, _ in model.classes]
     assert len(loaded.classes) == 2 and all(c[2] is None for c in loaded.classes)
+    # No recorded colours: the palette's first two (Tableau 10), as the command line shows them.
+    assert loaded.class_colors == [(0x1F, 0x77, 0xB4), (0xFF, 0x7F, 0x0E)]
     lo, hi = loaded.bounds
     assert len(lo) == len(hi) == 3 and all(a < b for a, b in zip(lo, hi))
     t0, t1 = loaded.time_range

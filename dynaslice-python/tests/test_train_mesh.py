@@ -27,7 +27,9 @@ def test_training_writes_a_model_that_learnt_the_spheres(trained):
     model, d, seen = trained
     assert (d / "spheres.dsm").exists() and (d / "spheres.dsm.ckpt").exists()
     assert dynaslice.Model.load(d / "spheres.dsm").to_bytes() == model.to_bytes()
-    assert [c[:2] for c in model.classes] == [("ball", 3), ("moon", 7)]
+    assert model.classes == [("ball", 3, (200, 30, 60)), ("moon", 7, None)]
+    # The input's colour where it gave one, else the palette's second colour (Tableau 10).
+    assert model.class_colors == [(200, 30, 60), (0xFF, 0x7F, 0x0E)]
     assert model.time_range == pytest.approx((0.0, 1.0))
     assert "steps = 1500" in model.metadata
     # Progress: increasing steps, the last one reported, loss going down.
@@ -67,9 +69,11 @@ def test_mesh_of_the_trained_model(trained):
 def test_mesh_helpers(trained):
     ball = trained[0].mesh(0.5, cls=1, resolution=32)
     trimesh = pytest.importorskip("trimesh", reason="trimesh not installed: to_trimesh untested")
+    assert ball.color == (200, 30, 60)
     tm = ball.to_trimesh()
     assert isinstance(tm, trimesh.Trimesh) and tm.is_watertight
     assert len(tm.vertices) == len(ball.vertices)
+    assert (tm.visual.vertex_colors == [200, 30, 60, 255]).all()
 
 
 def test_mesh_to_pyvista(trained):
@@ -78,6 +82,7 @@ def test_mesh_to_pyvista(trained):
     poly = ball.to_pyvista()
     assert poly.n_points == len(ball.vertices) and poly.n_cells == len(ball.faces)
     np.testing.assert_array_equal(poly.point_data["normal_velocity"], ball.normal_velocity)
+    assert (poly.point_data["Colors"] == [200, 30, 60]).all()
 
 
 def test_label_volume_like_a_nibabel_image_and_a_file(trained, tmp_path):

@@ -4,7 +4,7 @@
 use crate::data_sampler::SampleCounts;
 use crate::trainer::{Outcome, TrainOptions};
 use dynaslice_core::format::{MAX_CLASSES, MAX_NAME_LEN};
-use dynaslice_core::{Domain, Error, ModelBytes};
+use dynaslice_core::{Domain, Error, Model, ModelBytes};
 use dynaslice_data::palette::{parse_hex, to_hex};
 use dynaslice_data::ClassInfo;
 
@@ -148,6 +148,23 @@ pub fn parse_class_colors(metadata: &str) -> Result<Vec<(i32, [u8; 3])>, String>
     Ok(colors)
 }
 
+/// The colour `model`'s metadata records for each of its channels ([`parse_class_colors`],
+/// matched by label), `None` for a channel it records none for: the training input's colours.
+/// Outputs show a channel without one in the palette's colour for it
+/// ([`dynaslice_data::palette::class_color`]). An error says what is malformed.
+pub fn recorded_class_colors(model: &Model) -> Result<Vec<Option<[u8; 3]>>, String> {
+    let recorded = parse_class_colors(model.metadata())?;
+    Ok(model
+        .classes()
+        .map(|c| {
+            recorded
+                .iter()
+                .find(|&&(label, _)| label == c.label)
+                .map(|&(_, color)| color)
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -184,6 +201,26 @@ mod tests {
             let e = parse_class_colors(&format!("class_colors = {bad}")).unwrap_err();
             assert!(e.contains("class_colors"), "{e}");
         }
+    }
+
+    /// Each channel gets the colour recorded for its label, in channel order whatever the
+    /// line's order; a channel without one gets `None`; a malformed line is an error.
+    #[test]
+    fn recorded_colours_follow_the_channels_by_label() {
+        use dynaslice_core::format::ModelWriter;
+        let mut w = ModelWriter::random_siren(&[8], 3, 1);
+        w.classes = vec![("a".into(), 5), ("b".into(), 1), ("c".into(), 9)];
+        w.metadata = "class_colors = 9:#0000ff 5:#e6194b\n".into();
+        let bytes = ModelBytes::copy_from(&w.to_bytes());
+        let model = bytes.model().unwrap();
+        assert_eq!(
+            recorded_class_colors(&model).unwrap(),
+            [Some([0xe6, 0x19, 0x4b]), None, Some([0, 0, 255])]
+        );
+        w.metadata = "class_colors = 9:blue\n".into();
+        let bytes = ModelBytes::copy_from(&w.to_bytes());
+        let e = recorded_class_colors(&bytes.model().unwrap()).unwrap_err();
+        assert!(e.contains("\"9:blue\" is not LABEL:#rrggbb"), "{e}");
     }
 
     fn class(name: &str, label: i32) -> ClassInfo {

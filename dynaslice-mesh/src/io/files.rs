@@ -105,20 +105,22 @@ impl MeshFiles {
     }
 
     /// Writes the mesh (RAS world coordinates) of class `k` (0-based; its name and label in
-    /// `class`) at the `i`-th time, world time `t`, atomically, and records it for the
-    /// collection.
+    /// `class`, its display colour `color`) at the `i`-th time, world time `t`, atomically, and
+    /// records it for the collection.
     pub fn write(
         &mut self,
         i: usize,
         t: f32,
         k: usize,
         class: ClassInfo<'_>,
+        color: [u8; 3],
         mesh: &Mesh,
     ) -> Result<()> {
         let path = self.path(i, k, class.name);
         let info = MeshInfo::new(class.name, self.space)
             .with_label(class.label)
-            .with_time(f64::from(t));
+            .with_time(f64::from(t))
+            .with_color(color);
         write(&path, mesh, self.format, &info)?;
         self.entries.push(pvd::Entry {
             time: t,
@@ -177,12 +179,13 @@ mod tests {
             name: "a",
             label: 4,
         };
-        series.write(0, 0.0, 0, a, &mesh).unwrap();
-        series.write(1, 0.5, 0, a, &mesh).unwrap();
+        series.write(0, 0.0, 0, a, [1, 2, 3], &mesh).unwrap();
+        series.write(1, 0.5, 0, a, [1, 2, 3], &mesh).unwrap();
         let vtp = std::fs::read(series_dir.join("class1_a_t0001.vtp")).unwrap();
         let vtp = String::from_utf8_lossy(&vtp);
         assert!(vtp.contains("Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">0.5<"));
         assert!(vtp.contains("Name=\"Label\" NumberOfTuples=\"1\" format=\"ascii\">4<"));
+        assert!(vtp.contains("type=\"UInt8\" Name=\"Colors\" NumberOfComponents=\"3\""));
         let pvd = series.finish().unwrap().unwrap();
         let text = std::fs::read_to_string(pvd).unwrap();
         assert!(text.contains(
@@ -190,7 +193,7 @@ mod tests {
         ));
 
         let mut ply = MeshFiles::series(&series_dir, Format::Ply, Space::Lps).unwrap();
-        ply.write(0, 0.0, 0, a, &mesh).unwrap();
+        ply.write(0, 0.0, 0, a, [1, 2, 3], &mesh).unwrap();
         assert_eq!(ply.finish().unwrap(), None);
     }
 }

@@ -1,12 +1,12 @@
 //! Mesh file formats, one file each. Every writer builds the file in memory and writes it
 //! atomically (temporary file, fsync, rename), so an interrupted run leaves no partial mesh.
 //!
-//! | format | geometry | vertex normals | `normal_velocity` | coordinate frame tag |
-//! |--------|----------|----------------|-------------------|----------------------|
-//! | PLY (binary little-endian) | indexed | `nx ny nz` | `normal_velocity` float property | `comment SPACE=…` |
-//! | OBJ | indexed | `vn` | — (no per-vertex scalars in OBJ) | `# … SPACE=…` first comment |
-//! | STL (binary) | triangle soup (the format has no indices) | facet normals only | — | `SPACE=…` in the 80-byte header |
-//! | VTP (VTK XML PolyData) | indexed | point data `Normals` | point data `normal_velocity` | field data string array `SPACE` |
+//! | format | geometry | vertex normals | `normal_velocity` | class colour | coordinate frame tag |
+//! |--------|----------|----------------|-------------------|--------------|----------------------|
+//! | PLY (binary little-endian) | indexed | `nx ny nz` | `normal_velocity` float property | `red green blue` uchar properties | `comment SPACE=…` |
+//! | OBJ | indexed | `vn` | — (no per-vertex scalars in OBJ) | — | `# … SPACE=…` first comment |
+//! | STL (binary) | triangle soup (the format has no indices) | facet normals only | — | — | `SPACE=…` in the 80-byte header |
+//! | VTP (VTK XML PolyData) | indexed | point data `Normals` | point data `normal_velocity` | point data `Colors` (UInt8, 3 components) | field data string array `SPACE` |
 //!
 //! Meshes are computed in our world frame, RAS (NIfTI's: +x right, +y anterior, +z superior).
 //! Every writer converts positions and normals into the [`Space`] asked for and says which in
@@ -175,6 +175,9 @@ pub struct MeshInfo<'a> {
     pub time: Option<f64>,
     /// The frame the vertices are written in.
     pub space: Space,
+    /// The class's display colour (sRGB), given to every vertex where the format has vertex
+    /// colours (PLY, VTP), when known.
+    pub color: Option<[u8; 3]>,
 }
 
 impl<'a> MeshInfo<'a> {
@@ -185,6 +188,7 @@ impl<'a> MeshInfo<'a> {
             label: None,
             time: None,
             space,
+            color: None,
         }
     }
 
@@ -200,6 +204,14 @@ impl<'a> MeshInfo<'a> {
     pub fn with_time(self, time: f64) -> Self {
         MeshInfo {
             time: Some(time),
+            ..self
+        }
+    }
+
+    /// With the class's display colour.
+    pub fn with_color(self, color: [u8; 3]) -> Self {
+        MeshInfo {
+            color: Some(color),
             ..self
         }
     }

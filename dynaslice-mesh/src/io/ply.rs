@@ -1,6 +1,7 @@
 //! Binary little-endian PLY through `ply-rs-bw`: `vertex` with `x y z nx ny nz normal_velocity`
-//! (float; the attributes only when the mesh has them) and `face` with `vertex_indices`
-//! (uchar count, uint indices). The header comments name the class and, on a line of its own
+//! (float; the attributes only when the mesh has them) and `red green blue` (uchar, the class
+//! colour, when known: the vertex colour properties MeshLab, trimesh, ParaView and 3D Slicer
+//! read), and `face` with `vertex_indices` (uchar count, uint indices). The header comments name the class and, on a line of its own
 //! as 3D Slicer writes it, the frame (`comment SPACE=LPS`).
 
 use super::super::Mesh;
@@ -19,6 +20,7 @@ enum Record {
         position: [f32; 3],
         normal: [f32; 3],
         normal_velocity: f32,
+        color: [u8; 3],
     },
     Face([u32; 3]),
 }
@@ -34,6 +36,7 @@ impl PropertyAccess for Record {
             position: p,
             normal: n,
             normal_velocity,
+            ..
         } = self
         else {
             return None;
@@ -46,6 +49,18 @@ impl PropertyAccess for Record {
             "ny" => n[1],
             "nz" => n[2],
             "normal_velocity" => *normal_velocity,
+            _ => return None,
+        })
+    }
+
+    fn get_uchar(&self, name: &str) -> Option<u8> {
+        let Record::Vertex { color, .. } = self else {
+            return None;
+        };
+        Some(match name {
+            "red" => color[0],
+            "green" => color[1],
+            "blue" => color[2],
             _ => return None,
         })
     }
@@ -81,6 +96,14 @@ pub(super) fn encode(mesh: &Mesh, info: &MeshInfo) -> Result<Vec<u8>> {
     names
         .into_iter()
         .for_each(|n| vertex.properties.add(float(n)));
+    if info.color.is_some() {
+        for n in ["red", "green", "blue"] {
+            vertex.properties.add(PropertyDef::new(
+                n.to_string(),
+                PropertyType::Scalar(ScalarType::UChar),
+            ));
+        }
+    }
     ply.header.elements.add(vertex);
     let mut face = ElementDef::new("face".to_string());
     face.properties.add(PropertyDef::new(
@@ -93,6 +116,7 @@ pub(super) fn encode(mesh: &Mesh, info: &MeshInfo) -> Result<Vec<u8>> {
             position: mesh.positions[i],
             normal: mesh.normals.get(i).copied().unwrap_or_default(),
             normal_velocity: mesh.normal_velocity.get(i).copied().unwrap_or_default(),
+            color: info.color.unwrap_or_default(),
         })
         .collect();
     ply.payload.insert("vertex".to_string(), vertices);
@@ -115,7 +139,9 @@ mod tests {
     #[test]
     fn round_trips_through_the_parser() {
         let mesh = tetrahedron();
-        let info = MeshInfo::new("lv", super::super::Space::Ras).with_label(3);
+        let info = MeshInfo::new("lv", super::super::Space::Ras)
+            .with_label(3)
+            .with_color([230, 25, 75]);
         let bytes = encode(&mesh, &info).unwrap();
         assert!(bytes.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
         let header = String::from_utf8_lossy(&bytes[..200]);
@@ -130,6 +156,13 @@ mod tests {
         assert_eq!(v[3]["z"], Property::Float(1.0));
         assert_eq!(v[1]["nx"], Property::Float(1.0));
         assert_eq!(v[2]["normal_velocity"], Property::Float(2.0));
+        for (i, c) in ["red", "green", "blue"].iter().enumerate() {
+            assert!(v.iter().all(|r| r[*c] == Property::UChar([230, 25, 75][i])));
+        }
+        // Without a colour, no colour properties.
+        let plain = encode(&mesh, &MeshInfo::new("lv", super::super::Space::Ras)).unwrap();
+        let plain = String::from_utf8_lossy(&plain[..200]).into_owned();
+        assert!(!plain.contains("property uchar red"), "{plain}");
         let f = &ply.payload["face"];
         assert_eq!(f[3]["vertex_indices"], Property::ListUInt(vec![1, 2, 3]));
     }

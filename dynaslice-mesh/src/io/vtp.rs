@@ -1,5 +1,7 @@
 //! VTK XML PolyData (.vtp), written directly: points, triangle `Polys`, point data `Normals`
-//! (3 components) and `normal_velocity` (1 component) as raw little-endian arrays in the
+//! (3 components), `normal_velocity` (1 component) and, when the class colour is known,
+//! `Colors` (UInt8, 3 components: VTK's direct RGB colours; ParaView shows them with "Map
+//! Scalars" off, 3D Slicer with direct colour mapping) as raw little-endian arrays in the
 //! appended section (UInt64 byte-count headers), and field data that 3D Slicer and ParaView
 //! read: `SPACE` (string, `RAS`/`LPS`: Slicer's frame tag), `ClassName` (string), `Label`
 //! (Int32) and `TimeValue` (Float64, the name VTK's time-aware writers use), the last two when
@@ -22,6 +24,13 @@ fn floats(name: &str, components: usize, values: impl Iterator<Item = f32>) -> A
     Appended {
         attributes: format!("type=\"Float32\" Name=\"{name}\" NumberOfComponents=\"{components}\""),
         bytes: values.flat_map(f32::to_le_bytes).collect(),
+    }
+}
+
+fn bytes(name: &str, components: usize, values: impl Iterator<Item = u8>) -> Appended {
+    Appended {
+        attributes: format!("type=\"UInt8\" Name=\"{name}\" NumberOfComponents=\"{components}\""),
+        bytes: values.collect(),
     }
 }
 
@@ -92,6 +101,10 @@ pub(super) fn encode(mesh: &Mesh, info: &MeshInfo) -> Vec<u8> {
             mesh.normal_velocity.iter().copied(),
         ));
     }
+    if let Some(color) = info.color {
+        let n = mesh.positions.len();
+        point_data.push(bytes("Colors", 3, color.into_iter().cycle().take(3 * n)));
+    }
     let points = floats("Points", 3, mesh.positions.iter().flatten().copied());
     let connectivity = ints(
         "connectivity",
@@ -148,7 +161,8 @@ mod tests {
     fn round_trips_through_the_parser() {
         let info = MeshInfo::new("lv", Space::Ras)
             .with_label(7)
-            .with_time(0.25);
+            .with_time(0.25)
+            .with_color([31, 119, 180]);
         let bytes = encode(&tetrahedron(), &info);
         let text = String::from_utf8_lossy(&bytes);
         assert!(text.contains("type=\"PolyData\""), "{text}");
@@ -182,6 +196,15 @@ mod tests {
             array.data.clone().into_vec::<f32>().unwrap(),
             vec![0.5, -1.0, 2.0, 0.25]
         );
+        let colors = piece.data.point.iter().find(|a| a.name() == "Colors");
+        let Some(Attribute::DataArray(array)) = colors else {
+            panic!("no Colors");
+        };
+        assert_eq!(array.elem, vtkio::model::ElementType::Generic(3));
+        assert_eq!(
+            array.data.clone().into_vec::<u8>().unwrap(),
+            [31, 119, 180].repeat(4)
+        );
     }
 
     #[test]
@@ -192,7 +215,7 @@ mod tests {
         let text =
             String::from_utf8_lossy(&encode(&mesh, &MeshInfo::new("x", Space::Lps))).into_owned();
         assert!(text.contains("<PointData>\n      </PointData>"), "{text}");
-        assert!(!text.contains("Label") && !text.contains("TimeValue"));
+        assert!(!text.contains("Label") && !text.contains("TimeValue") && !text.contains("Colors"));
         assert!(text.contains(">76 80 83 0<"));
     }
 }

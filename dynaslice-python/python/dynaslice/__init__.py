@@ -64,7 +64,8 @@ class Mesh:
     Attributes: ``vertices`` (V, 3) float32, ``faces`` (F, 3) int64 (counter-clockwise seen
     from outside), ``normal_velocity`` (V,) float32 (world units per time unit, positive where
     the surface moves outwards), ``normals`` (V, 3) float32 (unit, outwards), ``name`` and
-    ``label`` of the class, ``time``. Unpacks as ``vertices, faces, normal_velocity``.
+    ``label`` of the class, ``time``, and ``color``, the class's display colour (r, g, b)
+    (:attr:`Model.class_colors`). Unpacks as ``vertices, faces, normal_velocity``.
     """
 
     def __init__(
@@ -76,6 +77,7 @@ class Mesh:
         faces: np.ndarray,
         normals: np.ndarray,
         normal_velocity: np.ndarray,
+        color: Tuple[int, int, int] = (128, 128, 128),
     ) -> None:
         self.name = name
         self.label = label
@@ -84,6 +86,7 @@ class Mesh:
         self.faces = faces
         self.normals = normals
         self.normal_velocity = normal_velocity
+        self.color = color
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.vertices, self.faces, self.normal_velocity))
@@ -98,8 +101,8 @@ class Mesh:
         )
 
     def to_trimesh(self) -> Any:
-        """A ``trimesh.Trimesh`` with the normals and ``vertex_attributes['normal_velocity']``
-        (needs ``pip install trimesh``)."""
+        """A ``trimesh.Trimesh`` with the normals, ``vertex_attributes['normal_velocity']`` and
+        the class colour as vertex colours (needs ``pip install trimesh``)."""
         try:
             import trimesh
         except ImportError as e:
@@ -109,12 +112,15 @@ class Mesh:
             faces=self.faces,
             vertex_normals=self.normals,
             vertex_attributes={"normal_velocity": self.normal_velocity},
+            vertex_colors=np.tile(np.array([*self.color, 255], dtype=np.uint8),
+                                  (len(self.vertices), 1)),
             process=False,
         )
 
     def to_pyvista(self) -> Any:
-        """A ``pyvista.PolyData`` with point data ``Normals`` and ``normal_velocity``
-        (needs ``pip install pyvista``)."""
+        """A ``pyvista.PolyData`` with point data ``Normals``, ``normal_velocity`` and
+        ``Colors`` (the class colour, uint8 RGB: ``plotter.add_mesh(poly, rgb=True)`` shows
+        it) (needs ``pip install pyvista``)."""
         try:
             import pyvista
         except ImportError as e:
@@ -123,6 +129,8 @@ class Mesh:
         poly = pyvista.PolyData(np.asarray(self.vertices, dtype=np.float32), cells.ravel())
         poly.point_data["Normals"] = self.normals
         poly.point_data["normal_velocity"] = self.normal_velocity
+        poly.point_data["Colors"] = np.tile(np.array(self.color, dtype=np.uint8),
+                                            (len(self.vertices), 1))
         return poly
 
 
@@ -172,9 +180,17 @@ class Model:
     @property
     def classes(self) -> List[Tuple[str, int, Optional[Tuple[int, int, int]]]]:
         """``[(name, label value, colour)]`` for classes 1..K in channel order. The label value
-        is the class's number in its source segmentation; the colour (r, g, b) is None: model
-        files carry no colours yet."""
-        return [(name, label, None) for name, label in self._m.class_records]
+        is the class's number in its source segmentation; the colour (r, g, b) is the one the
+        training input gave the class (an RTSTRUCT ROI Display Color, a ``.seg.nrrd`` segment
+        colour, a ``color`` in native JSON), or None where it gave none."""
+        return self._m.class_records
+
+    @property
+    def class_colors(self) -> List[Tuple[int, int, int]]:
+        """``[(r, g, b)]`` for classes 1..K: the colour each class is shown in, its input's
+        colour (:attr:`classes`) or else DynaSlice's palette colour for its channel; the
+        colours of the command line's mesh files, colour tables and pictures."""
+        return self._m.class_colors
 
     @property
     def bounds(self) -> Tuple[Tuple[float, float, float], Tuple[float, float, float]]:
@@ -252,8 +268,9 @@ class Model:
         else:
             keys = [str(c) for c in cls]  # type: ignore[union-attr]
         names = self._m.class_records
+        colors = self.class_colors
         meshes = [
-            Mesh(names[k - 1][0], names[k - 1][1], float(t), v, f, n, vn)
+            Mesh(names[k - 1][0], names[k - 1][1], float(t), v, f, n, vn, colors[k - 1])
             for k, v, f, n, vn in self._m.mesh(
                 float(t),
                 keys,
