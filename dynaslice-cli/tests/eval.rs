@@ -8,7 +8,6 @@ use dynaslice_core::Domain;
 use dynaslice_mesh::io::{write, Format, MeshInfo, Space};
 use dynaslice_mesh::Mesh;
 use dynaslice_test_support::spheres::{self, Sphere};
-use std::f64::consts::{PI, TAU};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -158,41 +157,6 @@ fn volumes_over_time_follow_the_closed_form() {
     );
 }
 
-/// A UV sphere of `radius` about `centre` (closed, outward).
-fn uv_sphere(centre: [f64; 3], radius: f64, n: usize) -> Mesh {
-    let mut positions = vec![[centre[0], centre[1], centre[2] + radius]];
-    for i in 1..n {
-        let theta = PI * i as f64 / n as f64;
-        for j in 0..2 * n {
-            let phi = TAU * j as f64 / (2 * n) as f64;
-            positions.push([
-                centre[0] + radius * theta.sin() * phi.cos(),
-                centre[1] + radius * theta.sin() * phi.sin(),
-                centre[2] + radius * theta.cos(),
-            ]);
-        }
-    }
-    positions.push([centre[0], centre[1], centre[2] - radius]);
-    let ring = |i: usize, j: usize| (1 + (i - 1) * 2 * n + j % (2 * n)) as u32;
-    let last = positions.len() as u32 - 1;
-    let mut triangles = Vec::new();
-    for j in 0..2 * n {
-        triangles.push([0, ring(1, j), ring(1, j + 1)]);
-        triangles.push([last, ring(n - 1, j + 1), ring(n - 1, j)]);
-    }
-    for i in 1..n - 1 {
-        for j in 0..2 * n {
-            triangles.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-            triangles.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-        }
-    }
-    Mesh {
-        positions: positions.iter().map(|p| p.map(|v| v as f32)).collect(),
-        triangles,
-        ..Mesh::default()
-    }
-}
-
 #[test]
 fn chamfer_distance_to_a_reference_mesh() {
     let dir = tempfile::tempdir().unwrap();
@@ -205,7 +169,7 @@ fn chamfer_distance_to_a_reference_mesh() {
     let stl = dir.path().join("ref.stl");
     write(
         &stl,
-        &uv_sphere([0.0; 3], 11.0, 96),
+        &Mesh::uv_sphere([0.0; 3], 11.0, 96, 192),
         Format::Stl,
         &MeshInfo::new("ref", Space::Ras),
     )

@@ -456,36 +456,10 @@ pub fn render_surfaces(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::f32::consts::PI;
 
-    /// A UV sphere (outward triangles, unit normals).
+    /// [`Mesh::uv_sphere`] with `n` rings and `2n` segments.
     fn sphere(centre: [f32; 3], radius: f32, n: u32) -> Mesh {
-        let mut mesh = Mesh::default();
-        let (rings, segments) = (n, 2 * n);
-        for i in 0..=rings {
-            let theta = PI * i as f32 / rings as f32;
-            for j in 0..segments {
-                let phi = 2.0 * PI * j as f32 / segments as f32;
-                let d = [
-                    theta.sin() * phi.cos(),
-                    theta.sin() * phi.sin(),
-                    theta.cos(),
-                ];
-                mesh.positions
-                    .push(std::array::from_fn(|k| centre[k] + radius * d[k]));
-                mesh.normals.push(d);
-            }
-        }
-        let at = |i: u32, j: u32| i * segments + j % segments;
-        for i in 0..rings {
-            for j in 0..segments {
-                mesh.triangles
-                    .push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-                mesh.triangles
-                    .push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
-        mesh
+        Mesh::uv_sphere(centre, radius, n, 2 * n)
     }
 
     fn class(name: &str, color: [u8; 3]) -> ClassInfo {

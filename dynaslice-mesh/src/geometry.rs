@@ -71,6 +71,48 @@ impl Mesh {
         }
     }
 
+    /// The sphere of `radius` about `centre` as a closed UV mesh: a vertex at each pole and
+    /// `rings − 1` rings of `segments` vertices between them (latitudes at multiples of π /
+    /// `rings`), outward triangles and unit outward normals (e.g. a reference shape with a
+    /// closed-form surface; its volume approaches 4/3·π·r³ from below as the counts grow).
+    /// Fewer than 2 rings or 3 segments give an empty mesh.
+    pub fn uv_sphere(centre: [f32; 3], radius: f32, rings: u32, segments: u32) -> Mesh {
+        if rings < 2 || segments < 3 {
+            return Mesh::default();
+        }
+        let mut mesh = Mesh::default();
+        let mut vertex = |d: [f32; 3]| {
+            mesh.positions
+                .push(std::array::from_fn(|k| centre[k] + radius * d[k]));
+            mesh.normals.push(d);
+        };
+        vertex([0.0, 0.0, 1.0]);
+        for i in 1..rings {
+            let theta = std::f32::consts::PI * i as f32 / rings as f32;
+            for j in 0..segments {
+                let phi = std::f32::consts::TAU * j as f32 / segments as f32;
+                vertex([
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                ]);
+            }
+        }
+        vertex([0.0, 0.0, -1.0]);
+        let south = mesh.positions.len() as u32 - 1;
+        let at = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
+        for j in 0..segments {
+            mesh.triangles.push([0, at(1, j), at(1, j + 1)]);
+            for i in 1..rings - 1 {
+                let (a, b, c, d) = (at(i, j), at(i, j + 1), at(i + 1, j), at(i + 1, j + 1));
+                mesh.triangles.extend([[a, c, d], [a, d, b]]);
+            }
+            mesh.triangles
+                .push([south, at(rings - 1, j + 1), at(rings - 1, j)]);
+        }
+        mesh
+    }
+
     fn corners(&self, t: &[u32; 3]) -> [[f64; 3]; 3] {
         t.map(|i| self.positions[i as usize].map(|v| v as f64))
     }
@@ -250,6 +292,31 @@ mod tests {
         // Far from the origin the volume stays exact.
         m.positions.iter_mut().for_each(|p| p[0] += 1000.0);
         assert!((m.enclosed_volume() - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn uv_sphere_is_closed_outward_and_on_the_sphere() {
+        let centre = [3.0, -2.0, 1.0];
+        let m = Mesh::uv_sphere(centre, 2.0, 24, 48);
+        let t = m.topology();
+        assert!(t.is_closed_manifold(), "{t:?}");
+        assert_eq!(t.euler_characteristic, 2);
+        assert_eq!(
+            (m.positions.len(), m.triangles.len()),
+            (2 + 23 * 48, 2 * 23 * 48)
+        );
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            let d: [f32; 3] = std::array::from_fn(|k| (p[k] - centre[k]) / 2.0);
+            assert!(d.iter().zip(n).all(|(a, b)| (a - b).abs() < 1e-6), "{p:?}");
+        }
+        // Inscribed: a little under the sphere's volume and area, and converging to them.
+        let (volume, area) = (
+            4.0 / 3.0 * std::f64::consts::PI * 8.0,
+            16.0 * std::f64::consts::PI,
+        );
+        assert!(m.enclosed_volume() < volume && m.enclosed_volume() > 0.99 * volume);
+        assert!(m.area() < area && m.area() > 0.99 * area);
+        assert_eq!(Mesh::uv_sphere(centre, 1.0, 1, 8), Mesh::default());
     }
 
     #[test]

@@ -7,47 +7,11 @@ use dynaslice_core::ClassInfo;
 use dynaslice_mesh::io::{read_stl, write, Format, MeshFiles, MeshInfo, Space};
 use dynaslice_mesh::Mesh;
 use dynaslice_test_support::python::run_python;
-use std::f32::consts::PI;
 
-/// A UV sphere of `radius` about `centre`: outward-wound triangles, outward unit normals, and a
-/// normal velocity equal to the vertex's z (any per-vertex scalar will do).
+/// [`Mesh::uv_sphere`] of `radius` about `centre` (`n` rings, `2n` segments), with a normal
+/// velocity equal to the vertex's z (any per-vertex scalar will do).
 fn uv_sphere(centre: [f32; 3], radius: f32, n: u32) -> Mesh {
-    let mut mesh = Mesh::default();
-    let (rings, segments) = (n, 2 * n);
-    mesh.positions
-        .push([centre[0], centre[1], centre[2] + radius]);
-    mesh.normals.push([0.0, 0.0, 1.0]);
-    for i in 1..rings {
-        let theta = PI * i as f32 / rings as f32;
-        for j in 0..segments {
-            let phi = 2.0 * PI * j as f32 / segments as f32;
-            let d = [
-                theta.sin() * phi.cos(),
-                theta.sin() * phi.sin(),
-                theta.cos(),
-            ];
-            mesh.positions
-                .push(std::array::from_fn(|k| centre[k] + radius * d[k]));
-            mesh.normals.push(d);
-        }
-    }
-    mesh.positions
-        .push([centre[0], centre[1], centre[2] - radius]);
-    mesh.normals.push([0.0, 0.0, -1.0]);
-    let south = mesh.positions.len() as u32 - 1;
-    let at = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
-    for j in 0..segments {
-        mesh.triangles.push([0, at(1, j), at(1, j + 1)]);
-        mesh.triangles
-            .push([south, at(rings - 1, j + 1), at(rings - 1, j)]);
-    }
-    for i in 1..rings - 1 {
-        for j in 0..segments {
-            let (a, b, c, d) = (at(i, j), at(i, j + 1), at(i + 1, j), at(i + 1, j + 1));
-            mesh.triangles.push([a, c, d]);
-            mesh.triangles.push([a, d, b]);
-        }
-    }
+    let mut mesh = Mesh::uv_sphere(centre, radius, n, 2 * n);
     mesh.normal_velocity = mesh.positions.iter().map(|p| p[2]).collect();
     mesh
 }

@@ -252,35 +252,9 @@ mod tests {
         Mesh::cuboid(lo.map(|v| v as f32), hi.map(|v| v as f32))
     }
 
-    /// A UV sphere: `stacks` rings of latitude, `slices` meridians, poles on the z axis.
+    /// [`Mesh::uv_sphere`] at an f64 centre and radius.
     fn uv_sphere(c: [f64; 3], r: f64, stacks: u32, slices: u32) -> Mesh {
-        let mut v = vec![[c[0], c[1], c[2] + r]];
-        for i in 1..stacks {
-            let th = PI * f64::from(i) / f64::from(stacks);
-            for j in 0..slices {
-                let ph = 2.0 * PI * f64::from(j) / f64::from(slices);
-                let (s, z) = (r * th.sin(), r * th.cos());
-                v.push([c[0] + s * ph.cos(), c[1] + s * ph.sin(), c[2] + z]);
-            }
-        }
-        v.push([c[0], c[1], c[2] - r]);
-        let ring = |i: u32, j: u32| 1 + (i - 1) * slices + j % slices;
-        let south = v.len() as u32 - 1;
-        let mut t = Vec::new();
-        for j in 0..slices {
-            t.push([0, ring(1, j), ring(1, j + 1)]);
-            for i in 1..stacks - 1 {
-                let (u0, u1, l0, l1) = (
-                    ring(i, j),
-                    ring(i, j + 1),
-                    ring(i + 1, j),
-                    ring(i + 1, j + 1),
-                );
-                t.extend([[u0, l0, l1], [u0, l1, u1]]);
-            }
-            t.push([south, ring(stacks - 1, j + 1), ring(stacks - 1, j)]);
-        }
-        mesh(v, t)
+        Mesh::uv_sphere(c.map(|v| v as f32), r as f32, stacks, slices)
     }
 
     fn concat(a: &Mesh, b: &Mesh) -> Mesh {
