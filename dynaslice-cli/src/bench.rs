@@ -2,8 +2,9 @@
 
 use super::options::{count, MAX_REPEATS, MAX_THREADS};
 use super::samples::SampleArgs;
+use super::widths::check_widths;
 use anyhow::{bail, Result};
-use dynaslice_core::format::{MAX_CLASSES, MAX_SINE_LAYERS, MAX_WIDTH};
+use dynaslice_core::format::{MAX_CLASSES, MAX_WIDTH};
 use dynaslice_train::bench;
 use dynaslice_train::objective::SpaceTimeScheme;
 
@@ -34,12 +35,7 @@ pub struct Args {
 /// trainer's scheme over that of K = 3 (or of the first K given, without 3), measured in the
 /// same run.
 pub fn run(a: Args) -> Result<()> {
-    if a.widths.is_empty() || a.widths.len() > MAX_SINE_LAYERS {
-        bail!(
-            "--widths: {} layers; a model has 1 to {MAX_SINE_LAYERS} sine layers",
-            a.widths.len()
-        );
-    }
+    check_widths(&a.widths)?;
     if a.classes.is_empty() {
         bail!("--classes: give at least one class count");
     }

@@ -23,6 +23,7 @@ pub mod samples;
 mod synth;
 mod train;
 mod warnings;
+pub mod widths;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

@@ -14,8 +14,9 @@ use super::options::{
 };
 use super::output::{Kind, Plan};
 use super::samples::SampleArgs;
+use super::widths::check_widths;
 use anyhow::{anyhow, bail, Context, Result};
-use dynaslice_core::format::{MAX_SINE_LAYERS, MAX_WIDTH};
+use dynaslice_core::format::MAX_WIDTH;
 use dynaslice_data::atomic::write_atomically;
 use dynaslice_data::atomic::write_via;
 use dynaslice_figures::plot::{line_chart, Series};
@@ -201,12 +202,7 @@ fn resume_command() -> String {
 /// (checkpointing beside the output), then writes the model file and its loss log
 /// (`.loss.csv`) and curve (`.loss.png`), each atomically.
 pub fn run(a: Args) -> Result<()> {
-    if a.widths.is_empty() || a.widths.len() > MAX_SINE_LAYERS {
-        bail!(
-            "--widths: {} layers; a model has 1 to {MAX_SINE_LAYERS} sine layers",
-            a.widths.len()
-        );
-    }
+    check_widths(&a.widths)?;
     let files = Files::of(&a.output);
     let inputs = a.input.inputs.iter().chain(&a.input.label_names);
     let mut plan = Plan::new(inputs, a.force);

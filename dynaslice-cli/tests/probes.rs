@@ -339,6 +339,10 @@ fn every_probe_ends_with_a_clear_error_and_changes_no_file() {
         ("bench --threads 100000".into(), vec!["--threads"]),
         ("bench --classes 65".into(), vec!["--classes"]),
         (
+            "bench --widths 8,8,8,8,8,8,8,8,8".into(),
+            vec!["--widths", "9 layers"],
+        ),
+        (
             "info /dev/zero".into(),
             vec!["/dev/zero", "not a regular file"],
         ),

@@ -7,6 +7,7 @@ use crate::experiments::synthetic::{self, Run, Scene, Variant};
 use crate::experiments::Protocol;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_cli::loss::LossArgs;
+use dynaslice_cli::widths::check_widths;
 use dynaslice_data::atomic::write_atomically;
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::nifti::read_volume;
@@ -174,6 +175,7 @@ impl Report {
 }
 
 pub fn run(a: Args) -> Result<()> {
+    check_widths(&a.widths)?;
     let variants = a
         .variants
         .iter()

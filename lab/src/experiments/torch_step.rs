@@ -16,7 +16,8 @@
 use anyhow::{anyhow, bail, Context, Result};
 use clap::builder::RangedU64ValueParser;
 use dynaslice_cli::samples::SampleArgs;
-use dynaslice_core::format::{MAX_CLASSES, MAX_SINE_LAYERS, MAX_WIDTH};
+use dynaslice_cli::widths::check_widths;
+use dynaslice_core::format::{MAX_CLASSES, MAX_WIDTH};
 use dynaslice_core::Layout;
 use dynaslice_train::bench::{self, StepReport};
 use dynaslice_train::data_sampler::SampleCounts;
@@ -312,12 +313,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// Runs `dynaslice-lab torch-step`: the checks, then the table on stdout (progress on stderr).
 pub fn run(a: Args) -> Result<()> {
-    if a.widths.is_empty() || a.widths.len() > MAX_SINE_LAYERS {
-        bail!(
-            "--widths: {} layers; a model has 1 to {MAX_SINE_LAYERS}",
-            a.widths.len()
-        );
-    }
+    check_widths(&a.widths)?;
     if a.classes.is_empty() {
         bail!("--classes: give at least one class count");
     }
