@@ -4,10 +4,10 @@
 use anyhow::Result;
 use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
 use dynaslice_data::frame_range::FrameRange;
-use dynaslice_data::input::{self, InputOptions};
+use dynaslice_data::input_spec::InputSpec;
 use dynaslice_data::reslice::ResliceOptions;
 use dynaslice_data::rtstruct::RoiExtent;
-use dynaslice_data::{LabelTable, Sequence};
+use dynaslice_data::Sequence;
 use std::path::PathBuf;
 
 use crate::options::{count, positive_f64};
@@ -64,33 +64,27 @@ pub struct InputArgs {
 impl InputArgs {
     /// The inputs for messages: `a.nii.gz`, or `a.nii.gz + b.nii.gz`.
     pub fn describe(&self) -> String {
-        self.inputs
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(" + ")
+        self.spec().describe()
+    }
+
+    /// These options as the one input specification the front ends share.
+    pub fn spec(&self) -> InputSpec {
+        InputSpec {
+            inputs: self.inputs.clone(),
+            frames: Some(self.frames),
+            label_names: self.label_names.clone(),
+            planes: Some(self.planes),
+            drawn_axes: Some(self.drawn_axes),
+            roi_extent: Some(self.roi_extent),
+            rotated_planes: Some(self.rotated_planes),
+            axial_step: Some(self.axial_step),
+            labels: self.labels.clone(),
+            pixel: self.pixel,
+        }
     }
 }
 
 /// Reads the inputs and keeps the selected frames.
 pub fn read(args: &InputArgs) -> Result<Sequence> {
-    let table = match &args.label_names {
-        Some(p) => LabelTable::read(p)?,
-        None => LabelTable::default(),
-    };
-    let options = InputOptions {
-        frames: args.frames,
-        table,
-        planes: args.planes,
-        sparse_axes: args.drawn_axes,
-        roi_extent: args.roi_extent,
-        reslice: ResliceOptions {
-            rotated: args.rotated_planes,
-            axial_step: args.axial_step,
-            frames: FrameRange::ALL,
-            labels: args.labels.clone(),
-            pixel: args.pixel,
-        },
-    };
-    Ok(input::read(&args.inputs, &options)?)
+    Ok(args.spec().read()?)
 }

@@ -114,6 +114,14 @@ pub fn run(a: Args) -> Result<()> {
         }
         None => bounds_grid(&a, &model)?,
     };
+    // The one time rule: a frame outside the model's range (a --times series past it, or a
+    // reference with more or longer frames) is refused, never extrapolated.
+    let option = if a.like.is_some() {
+        "--like's frame time"
+    } else {
+        "--times"
+    };
+    file.check_times(option, grid.times.iter().copied())?;
     let [nx, ny, nz] = grid.dims;
     memory::check(
         &format!("a label volume of {nx}×{ny}×{nz} voxels"),

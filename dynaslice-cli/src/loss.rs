@@ -2,6 +2,7 @@
 
 use super::options::{non_negative_f32, MAX_WEIGHT};
 use dynaslice_train::loss::LossWeights;
+use dynaslice_train::spec::TrainSpec;
 use dynaslice_train::trainer::TrainOptions;
 
 /// λ_n, λ_d, λ_r and α, each with the trainer's default; each finite and in [0, 10⁶].
@@ -30,6 +31,17 @@ pub struct LossArgs {
 }
 
 impl LossArgs {
+    /// `spec` with these weights set.
+    pub fn apply(&self, spec: TrainSpec) -> TrainSpec {
+        TrainSpec {
+            lambda_orientation: Some(self.lambda_orientation),
+            lambda_plane: Some(self.lambda_plane),
+            lambda_regulariser: Some(self.lambda_regulariser),
+            alpha: Some(self.alpha),
+            ..spec
+        }
+    }
+
     /// The weights; `orientation: false` is the ablation `--no-orientation` (λ_n = 0).
     pub fn weights(&self, orientation: bool) -> LossWeights {
         LossWeights {

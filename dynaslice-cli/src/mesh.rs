@@ -57,10 +57,12 @@ pub struct Args {
     /// File format of a series (ply, obj, stl, vtp); a single file takes its extension's.
     #[arg(long, default_value = "vtp", value_parser = parse_format)]
     format: Format,
-    /// Frame of the written vertices: lps (x and y negated; what 3D Slicer and ITK assume) or
-    /// ras (the model's world frame).
-    #[arg(long, default_value = "lps", value_parser = parse_space)]
-    space: Space,
+    /// Frame of the written vertices, tagged in each file (SPACE=…): lps (x and y negated;
+    /// DICOM's patient frame, what 3D Slicer and ITK assume) or ras (NIfTI's). Default: the
+    /// frame the model's input came in (`dynaslice info` shows it), so the meshes lie on the
+    /// input's own coordinates (a .csl or JSON input's numbers unchanged).
+    #[arg(long, value_parser = parse_space)]
+    space: Option<Space>,
     /// Non-overlapping surfaces: the boundaries of the Eq. 11 label partition, shared by
     /// neighbouring classes.
     #[arg(long)]
@@ -84,10 +86,7 @@ pub struct Args {
 }
 
 fn parse_space(s: &str) -> Result<Space, String> {
-    Space::ALL
-        .into_iter()
-        .find(|sp| sp.name().eq_ignore_ascii_case(s))
-        .ok_or_else(|| format!("unknown frame {s:?}; use lps or ras"))
+    s.parse()
 }
 
 fn parse_format(s: &str) -> Result<Format, String> {
@@ -142,7 +141,7 @@ fn mesh_all(args: &Args) -> Result<()> {
     }
     let file = ModelFile::open(&args.model)?;
     let model = file.model();
-    let classes = dynaslice_mesh::resolve_classes(&model, &args.classes)
+    let classes = dynaslice_model::resolve_classes(&model, &args.classes)
         .map_err(|e| anyhow!("{}: {e}", args.model.display()))?;
     let names: Vec<String> = model.classes().map(|c| c.name.to_string()).collect();
     let colors = file.class_colors();
@@ -184,10 +183,11 @@ fn mesh_all(args: &Args) -> Result<()> {
         newton_steps: args.newton_steps,
     };
     // Where each (time, class) mesh goes.
+    let space = args.space.unwrap_or_else(|| file.space());
     let mut files = if series {
-        MeshFiles::series(&args.output, args.format, args.space)?
+        MeshFiles::series(&args.output, args.format, space)?
     } else {
-        MeshFiles::single(&args.output, classes.len(), args.space)?
+        MeshFiles::single(&args.output, classes.len(), space)?
     };
     if !series && classes.len() > 1 {
         // The per-class files beside -o: none may be the model.

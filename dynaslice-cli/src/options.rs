@@ -1,24 +1,19 @@
 //! Value parsers for the command-line options, so that every number is checked when the command
 //! line is parsed, before any file is read: a bad value ends the run at once (exit 2) with clap's
 //! `invalid value 'V' for '--option <X>'` followed by the allowed range. The limits are the
-//! `MAX_*` constants below; docs/robustness.md lists which option has which.
+//! `MAX_*` constants below and, for training, `dynaslice_train::spec`'s; docs/robustness.md lists which option has which.
 //!
 //! Use: `#[arg(long, value_parser = count(1usize, MAX_THREADS))]`,
 //! `#[arg(long, value_parser = positive_f32(MAX_OMEGA_0))]`.
 
 use dynaslice_data::TimeSeries;
+use dynaslice_train::spec::Limit;
+pub use dynaslice_train::spec::{
+    MAX_MINUTES, MAX_SAMPLES_PER_STEP, MAX_STEPS, MAX_THREADS, MAX_WEIGHT,
+};
 use std::fmt::Display;
 use std::str::FromStr;
 
-/// Worker threads of any command: far above any machine this runs on, small enough that a typo
-/// (`--threads 100000`) cannot spawn a process-choking number of threads.
-pub const MAX_THREADS: usize = 1024;
-/// Optimisation steps of `train` (its loss history holds one row per step).
-pub const MAX_STEPS: u64 = 10_000_000;
-/// Samples per class (contour, plane) or per step (space-time) of `train` and `bench`.
-pub const MAX_SAMPLES_PER_STEP: usize = 1 << 20;
-/// Minutes of `--minutes` and `--checkpoint-minutes`: a year, and within `Duration`'s range.
-pub const MAX_MINUTES: f64 = 525_600.0;
 /// Lattice cells along the longest axis of a meshing grid (`mesh`, `eval`).
 pub const MAX_MESH_RESOLUTION: u32 = 2048;
 /// Cells per axis of the 3D IoU grid of `eval synthetic`.
@@ -39,14 +34,6 @@ pub const MAX_SYNTH_PLANES: usize = 1000;
 pub const MAX_PLANE_RESOLUTION: usize = 4096;
 /// Voxels per axis of the synthetic ground-truth volume.
 pub const MAX_VOLUME_RESOLUTION: usize = 1024;
-/// ω₀ of the first sine layer: two orders of magnitude above the documented useful range (10–30).
-pub const MAX_OMEGA_0: f32 = 10_000.0;
-/// c of ω_t^max = c·π/Δt (Eq. 4).
-pub const MAX_TEMPORAL_FACTOR: f32 = 1000.0;
-/// The initial learning rate (Adam; useful values are around 1e-4 to 1e-2).
-pub const MAX_LR: f32 = 10.0;
-/// Loss weights λ and α.
-pub const MAX_WEIGHT: f32 = 1e6;
 /// The safety factor of the mesher's distance bound.
 pub const MAX_SAFETY: f32 = 1000.0;
 /// Timed repetitions of `bench`.
@@ -57,26 +44,20 @@ fn outside(what: &str, range: &str) -> String {
     format!("{what}; allowed: {range}")
 }
 
-/// A finite number in `lo..=hi` (`lo` excluded where `open`), parsed as f64.
+/// A finite number in `lo..=hi` (`lo` excluded where `open`), parsed as f64; the range and its
+/// words are [`Limit`]'s, which the training options' checks in Python share.
 fn real(s: &str, lo: f64, open: bool, hi: f64) -> Result<f64, String> {
-    let range = match (open, lo, hi) {
-        (_, f64::NEG_INFINITY, f64::INFINITY) => "any finite number".to_string(),
-        (true, 0.0, f64::INFINITY) => "a finite number > 0".to_string(),
-        (false, 0.0, f64::INFINITY) => "a finite number ≥ 0".to_string(),
-        (true, _, _) => format!("a number > {lo} and ≤ {hi}"),
-        (false, _, _) => format!("a number from {lo} to {hi}"),
+    let limit = match (open, lo) {
+        (true, _) => Limit::positive(hi),
+        (false, 0.0) => Limit::non_negative(hi),
+        (false, _) => Limit::between(lo, hi),
     };
+    debug_assert!(!open || lo == 0.0, "open ranges start at 0");
     let v: f64 = s
         .trim()
         .parse()
-        .map_err(|_| outside("not a number", &range))?;
-    if !v.is_finite() {
-        return Err(outside("not a finite number", &range));
-    }
-    if v < lo || (open && v == lo) || v > hi {
-        return Err(outside("out of range", &range));
-    }
-    Ok(v)
+        .map_err(|_| outside("not a number", &limit.allowed()))?;
+    limit.check(v)
 }
 
 /// The same as an f32: a value that rounds to infinity or (for `open` at 0) to zero is refused.

@@ -253,6 +253,9 @@ pub fn run(a: Args) -> Result<()> {
             None => vec![],
         },
     };
+    for &t in &extra {
+        file.check_time("--times", t as f32)?;
+    }
     let mut panels = vec![Panel {
         time: frame.time,
         title: format!("t = {:.4} (annotated), plane {plane_index}", frame.time),

@@ -3,6 +3,7 @@
 use super::options::{count, MAX_SAMPLES_PER_STEP};
 use dynaslice_core::format::MAX_CLASSES;
 use dynaslice_train::data_sampler::SampleCounts;
+use dynaslice_train::spec::TrainSpec;
 
 /// Samples per step (`dynaslice_train::data_sampler::SampleCounts`).
 #[derive(clap::Args, Debug)]
@@ -33,14 +34,20 @@ pub struct SampleArgs {
 }
 
 impl SampleArgs {
+    /// `spec` with these options set.
+    pub fn apply(&self, spec: TrainSpec) -> TrainSpec {
+        TrainSpec {
+            contour_samples: Some(self.contour_samples),
+            plane_samples: Some(self.plane_samples),
+            space_samples: Some(self.space_samples),
+            budget_classes: Some(self.budget_classes),
+            min_class_samples: Some(self.min_class_samples),
+            ..spec
+        }
+    }
+
     /// The counts these options give.
     pub fn counts(&self) -> SampleCounts {
-        SampleCounts {
-            contour_per_class: self.contour_samples,
-            plane_per_class: self.plane_samples,
-            space: self.space_samples,
-            budget_classes: self.budget_classes,
-            min_per_class: self.min_class_samples,
-        }
+        self.apply(TrainSpec::default()).counts()
     }
 }

@@ -1,48 +1,43 @@
 //! `dynaslice train INPUT -o MODEL.dsm`: fit a 4D multi-class SIREN to cross-sections.
 //!
-//! Everything that can be checked is checked before the first step: the options (at parse
-//! time, [`super::options`]), the outputs ([`super::output`]), an existing checkpoint (kept
-//! unless `--resume` or `--force` says what to do with it), and the input's fit to the model
-//! format ([`check_model_limits`]). The loss rows of every step go to a log beside the
-//! checkpoint as they are made, so a resumed run's loss log starts at step 1.
+//! An adapter over [`dynaslice_train::fit`]: the flags map onto a [`TrainSpec`] and an
+//! [`dynaslice_data::input_spec::InputSpec`] (the Python package's `dynaslice.train` maps its keywords onto the same two),
+//! the outputs are checked ([`super::output`]) and the existing checkpoint's fate decided
+//! ([`RunFiles::check_state`]) before the input is read, and the run is shown with a progress
+//! bar (or log lines off a terminal) and stopped cleanly by Ctrl-C.
 
-use super::input::{self, InputArgs};
+use super::input::InputArgs;
 use super::loss::LossArgs;
-use super::options::{
-    count, f32_in, non_negative_f64_to, positive_f32, positive_f64_to, MAX_LR, MAX_MINUTES,
-    MAX_OMEGA_0, MAX_STEPS, MAX_TEMPORAL_FACTOR, MAX_THREADS, MAX_WEIGHT,
-};
+use super::options::{count, f32_in, non_negative_f64_to, positive_f32, positive_f64_to};
 use super::output::{Kind, Plan};
 use super::samples::SampleArgs;
-use super::widths::check_widths;
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Result};
 use dynaslice_core::format::MAX_WIDTH;
-use dynaslice_data::atomic::write_atomically;
-use dynaslice_data::atomic::write_via;
-use dynaslice_figures::plot::{line_chart, Series};
-use dynaslice_train::data_sampler::{domain_for, DataSampler};
-use dynaslice_train::model_file::{check_model_limits, TrainedModel};
-use dynaslice_train::temporal_bound::{temporal_bound, DEFAULT_TEMPORAL_FACTOR};
-use dynaslice_train::trainer::{self, Outcome, Progress, TrainOptions};
+use dynaslice_figures::plot::loss_curve;
+use dynaslice_train::fit::{fit, InputRecord, Observer, RunFiles};
+use dynaslice_train::journal::TERM_NAMES;
+use dynaslice_train::spec::{
+    TrainSpec, DEFAULT_CHECKPOINT_MINUTES, MAX_LR, MAX_MINUTES, MAX_OFFSET, MAX_OMEGA_0, MAX_STEPS,
+    MAX_TEMPORAL_FACTOR, MAX_THREADS, MAX_WEIGHT,
+};
+use dynaslice_train::temporal_bound::DEFAULT_TEMPORAL_FACTOR;
+use dynaslice_train::trainer::{Progress, TrainOptions};
 use indicatif::{ProgressBar, ProgressStyle};
-use std::fs::File;
-use std::io::{BufRead, BufReader, IsTerminal, Read, Write};
+use std::io::IsTerminal;
 use std::ops::ControlFlow;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-/// |`--init-offset`| at most, in normalised units (the domain's half-width is 1).
-const MAX_OFFSET: f32 = 100.0;
-
 /// Arguments of `dynaslice train`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "\
-Beside MODEL.dsm the run writes MODEL.dsm.loss.csv (one row per step), MODEL.dsm.loss.png and a
-checkpoint MODEL.dsm.ckpt with its loss rows MODEL.dsm.ckpt.loss.csv. Ctrl-C stops after the
-current step, saves the checkpoint and prints the command that continues the run (--resume).
-A run that would replace an existing model or discard an existing checkpoint needs --force.")]
+Beside MODEL.dsm the run writes MODEL.dsm.loss.csv (one row per step) and MODEL.dsm.loss.png.
+While it goes it keeps a checkpoint MODEL.dsm.ckpt with its loss rows MODEL.dsm.ckpt.loss.csv;
+a finished run removes both, an interrupted one keeps them. Ctrl-C stops after the current
+step, saves the checkpoint and prints the command that continues the run (--resume). A run
+that would replace an existing model or discard an existing checkpoint needs --force.")]
 pub struct Args {
     #[command(flatten)]
     input: InputArgs,
@@ -55,8 +50,9 @@ pub struct Args {
     #[arg(long, value_parser = count(1, MAX_STEPS))]
     steps: Option<u64>,
     /// Train for this many minutes: the step time is measured on the first steps and the
-    /// learning-rate schedule planned to end, at its lowest rate, when the time is up (the
-    /// planned steps are recorded in the checkpoint and the model's metadata).
+    /// learning-rate schedule planned to end, at its lowest rate, when the time is up; as the
+    /// machine's speed changes the rest of the schedule is re-planned (the plan is recorded in
+    /// the checkpoint, which a resumed run follows, and the model's metadata).
     #[arg(long, value_parser = positive_f64_to(MAX_MINUTES), allow_negative_numbers = true)]
     minutes: Option<f64>,
     /// Seed of initialisation and sampling.
@@ -126,37 +122,9 @@ pub struct Args {
           value_parser = positive_f32(MAX_WEIGHT), allow_negative_numbers = true)]
     class_weights: Option<Vec<f32>>,
     /// Minutes between checkpoints (0: after every step).
-    #[arg(long, default_value_t = 2.0, value_parser = non_negative_f64_to(MAX_MINUTES),
+    #[arg(long, default_value_t = DEFAULT_CHECKPOINT_MINUTES, value_parser = non_negative_f64_to(MAX_MINUTES),
           allow_negative_numbers = true)]
     checkpoint_minutes: f64,
-}
-
-/// The files of one training run, all beside the model.
-struct Files {
-    model: PathBuf,
-    csv: PathBuf,
-    png: PathBuf,
-    checkpoint: PathBuf,
-    /// The loss rows as they are made (appended every step): what a resumed run's loss log
-    /// starts from.
-    journal: PathBuf,
-}
-
-impl Files {
-    fn of(model: &Path) -> Files {
-        let beside = |suffix: &str| {
-            let mut s = model.as_os_str().to_owned();
-            s.push(suffix);
-            PathBuf::from(s)
-        };
-        Files {
-            model: model.to_path_buf(),
-            csv: beside(".loss.csv"),
-            png: beside(".loss.png"),
-            checkpoint: beside(".ckpt"),
-            journal: beside(".ckpt.loss.csv"),
-        }
-    }
 }
 
 /// Set by Ctrl-C: the run stops after the current step and saves its checkpoint.
@@ -198,301 +166,141 @@ fn resume_command() -> String {
     shlex::try_join(args.iter().map(String::as_str)).unwrap_or_else(|_| args.join(" "))
 }
 
-/// Runs `dynaslice train`: checks the outputs and the input, trains on the input's frames
-/// (checkpointing beside the output), then writes the model file and its loss log
-/// (`.loss.csv`) and curve (`.loss.png`), each atomically.
+impl Args {
+    /// The flags as the one training specification.
+    fn spec(&self) -> TrainSpec {
+        TrainSpec {
+            steps: self.steps,
+            minutes: self.minutes,
+            seed: Some(self.seed),
+            threads: Some(self.threads),
+            no_temporal_control: self.no_temporal_control,
+            no_orientation: self.no_orientation,
+            widths: Some(self.widths.clone()),
+            omega0: Some(self.omega0),
+            init_offset: Some(self.init_offset),
+            temporal_factor: Some(self.temporal_factor),
+            lr: Some(self.lr),
+            warmup_steps: Some(self.warmup_steps),
+            class_weights: self.class_weights.clone(),
+            checkpoint_minutes: Some(self.checkpoint_minutes),
+            resume: self.resume,
+            force: self.force,
+            ..self.samples.apply(self.loss.apply(TrainSpec::default()))
+        }
+    }
+}
+
+/// Runs `dynaslice train`: checks the options, the outputs and the checkpoint, reads the
+/// input, trains ([`fit`]), then writes the model file and its loss log and curve.
 pub fn run(a: Args) -> Result<()> {
-    check_widths(&a.widths)?;
-    let files = Files::of(&a.output);
+    let spec = a.spec();
+    spec.validate()?;
+    let files = RunFiles::beside(&a.output);
     let inputs = a.input.inputs.iter().chain(&a.input.label_names);
     let mut plan = Plan::new(inputs, a.force);
     plan.file("-o", &files.model, Kind::Model)?;
-    for p in [&files.csv, &files.png, &files.checkpoint, &files.journal] {
+    for p in files.sidecars() {
         plan.beside(p)?;
     }
-    let has_checkpoint = files.checkpoint.exists();
-    if has_checkpoint && !a.resume && !a.force {
-        bail!(
-            "{} holds the checkpoint of an earlier run; add --resume to continue it, or \
-             --force to start afresh and replace it",
-            files.checkpoint.display()
-        );
-    }
-    if a.resume && !has_checkpoint {
+    files.check_state(&spec)?;
+    if a.resume && !files.checkpoint.exists() {
         eprintln!(
             "--resume: no checkpoint at {}; starting at step 0",
             files.checkpoint.display()
         );
     }
-
-    let seq = input::read(&a.input)?;
-    let domain = domain_for(&seq);
-    check_model_limits(seq.classes(), &domain)
-        .map_err(|e| anyhow!("{}: {e}", a.input.describe()))?;
-    let omega_t_max = temporal_bound(&seq, &domain, a.temporal_factor, !a.no_temporal_control);
-    let options = TrainOptions {
-        widths: a.widths.clone(),
-        steps: match (a.steps, a.minutes) {
-            (Some(steps), _) => steps,
-            // The plan sets the schedule's length; the cap only bounds it.
-            (None, Some(_)) => MAX_STEPS,
-            (None, None) => TrainOptions::default().steps,
-        },
-        // Both in range of `Duration` by their value parsers.
-        time_limit: a.minutes.map(|m| Duration::from_secs_f64(m * 60.0)),
-        omega_0: a.omega0,
-        offset: a.init_offset,
-        seed: a.seed,
-        threads: a.threads,
-        lr: a.lr,
-        lr_final: a.lr / 10.0,
-        warmup_steps: a.warmup_steps,
-        loss: a.loss.weights(!a.no_orientation),
-        omega_t_max,
-        checkpoint: Some(files.checkpoint.clone()),
-        checkpoint_every: Duration::from_secs_f64(a.checkpoint_minutes * 60.0),
-        resume: a.resume,
-    };
-    let counts = a.samples.counts();
-    let k = seq.classes().len();
-    eprintln!(
-        "{}: {} classes, {} frames, {} planes; domain centre {:?}, half-width {:.4}, time {}..{}; ω_t^max {}",
-        a.input.describe(),
-        k,
-        seq.frames().len(),
-        seq.frames().iter().map(|f| f.planes.len()).sum::<usize>(),
-        domain.center,
-        domain.scale[0],
-        domain.time_origin,
-        domain.time_origin + domain.time_span,
-        omega_t_max
-    );
-    let mut sampler = DataSampler::new(&seq, domain, counts);
-    if let Some(w) = &a.class_weights {
-        sampler = sampler
-            .with_class_weights(w)
-            .map_err(|e| anyhow!("--class-weights: {e}"))?;
-    }
-    let earlier = if a.resume && has_checkpoint {
-        read_journal(&files.journal)?
-    } else {
-        Vec::new()
+    let input = a.input.spec();
+    let seq = input.read()?;
+    let (space, units) = input.space()?;
+    let record = InputRecord {
+        description: input.describe(),
+        frames: input.frames().to_string(),
+        space,
+        units,
     };
     catch_interrupt();
-    let (outcome, rows) = run_with_progress(&options, k, &mut sampler, &files, earlier)?;
-    if INTERRUPTED.load(Ordering::SeqCst) {
+    let mut console = Console::new();
+    let trained = fit(&seq, &spec, &record, Some(&files), &mut console);
+    console.finish();
+    let trained = trained?;
+    if trained.stopped {
         bail!(
             "interrupted at step {} of {}: checkpoint {} saved, no model written; continue \
              with\n  {}",
-            outcome.steps_done,
-            outcome.planned_steps.unwrap_or(options.steps),
+            trained.steps_done,
+            trained.schedule_steps,
             files.checkpoint.display(),
             resume_command()
         );
     }
-    if outcome.steps_done == 0 {
-        bail!(
-            "no training step finished within --minutes {}; no model written",
-            a.minutes.unwrap_or_default()
-        );
-    }
-
-    let bytes = TrainedModel {
-        outcome: &outcome,
-        domain,
-        classes: seq.classes(),
-        options: &options,
-        counts,
-        temporal_factor: a.temporal_factor,
-        class_weights: a.class_weights.as_deref(),
-        input: &format!(
-            "input = {}\nframes = {}",
-            a.input.describe(),
-            a.input.frames
-        ),
-    }
-    .to_bytes()
-    .map_err(|e| anyhow!("cannot write the model: {e}"))?;
-    write_atomically(&files.model, &bytes)?;
-    write_loss_log(&files, &rows)?;
+    trained.write(&files)?;
+    let rows: Vec<(u64, &[f64])> = trained.rows.iter().map(|r| (r.0, &r.1[..])).collect();
+    loss_curve(&files.png, &TERM_NAMES, &rows)?;
     eprintln!(
         "wrote {} after {} steps in {:.1} s ({} bytes); loss log {}, curve {}",
         files.model.display(),
-        outcome.steps_done,
-        outcome.elapsed.as_secs_f64(),
-        bytes.len(),
+        trained.steps_done,
+        trained.elapsed.as_secs_f64(),
+        trained.bytes.len(),
         files.csv.display(),
         files.png.display()
     );
     Ok(())
 }
 
-/// The loss log's header; a row is the step then these values.
-const CSV_HEADER: &str = "step,total,surface,orientation,plane,eikonal,spurious";
+/// The run on the terminal: a progress bar there, a log line every 10 s elsewhere; Ctrl-C
+/// stops it.
+struct Console {
+    bar: Option<ProgressBar>,
+    last_log: Instant,
+}
 
-/// One step's losses: the step, then total, surface, orientation, plane, eikonal, spurious.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Row(u64, [f64; 6]);
-
-impl Row {
-    fn of(step: u64, t: &dynaslice_train::loss::LossTerms, total: f64) -> Row {
-        Row(
-            step,
-            [
-                total,
-                t.surface,
-                t.orientation,
-                t.plane,
-                t.eikonal,
-                t.spurious,
-            ],
-        )
-    }
-
-    /// The CSV line (f64 `Display` is the shortest exact form, so [`Row::parse`] restores it).
-    fn line(&self) -> String {
-        let v = self.1;
-        format!(
-            "{},{},{},{},{},{},{}\n",
-            self.0, v[0], v[1], v[2], v[3], v[4], v[5]
-        )
-    }
-
-    fn parse(line: &str) -> Option<Row> {
-        let mut it = line.trim().split(',');
-        let step = it.next()?.parse().ok()?;
-        let mut v = [0.0; 6];
-        for x in &mut v {
-            *x = it.next()?.parse().ok()?;
+impl Console {
+    fn new() -> Console {
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let bar = ProgressBar::new(0);
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{elapsed_precise} [{bar:30}] {pos}/{len} {per_sec} ETA {eta} {msg}",
+                )
+                .expect("valid template")
+                .progress_chars("=> "),
+            );
+            bar
+        });
+        Console {
+            bar,
+            last_log: Instant::now(),
         }
-        it.next().is_none().then_some(Row(step, v))
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish();
+        }
     }
 }
 
-/// The rows of the journal beside a checkpoint, in step order (none if it is missing). A
-/// torn last line (a kill mid-write) is dropped; the file's size is bounded first.
-fn read_journal(path: &Path) -> Result<Vec<Row>> {
-    let Ok(file) = File::open(path) else {
-        return Ok(Vec::new());
-    };
-    // The longest line is 20 digits and six f64s of at most 24 characters, plus commas.
-    let max = (MAX_STEPS + 1) * 180;
-    let mut rows = Vec::new();
-    let reader = BufReader::new(file.take(max));
-    for line in reader.lines().skip(1) {
-        let line = line.with_context(|| format!("cannot read {}", path.display()))?;
-        match Row::parse(&line) {
-            Some(r) if rows.last().is_none_or(|l: &Row| l.0 < r.0) => rows.push(r),
-            _ => break,
-        }
-    }
-    Ok(rows)
+/// One step's losses for the user.
+fn report(p: &Progress) -> String {
+    let t = &p.terms;
+    format!(
+        "loss {:.4e} (surface {:.3e}, orientation {:.3e}, plane {:.3e}, eikonal {:.3e}, spurious {:.3e}) lr {:.2e}",
+        p.loss, t.surface, t.orientation, t.plane, t.eikonal, t.spurious, p.lr
+    )
 }
 
-/// The journal as the run goes: rewritten at the first step with the rows the checkpoint
-/// covers, then one row appended (and flushed) per step.
-struct Journal {
-    path: PathBuf,
-    file: Option<File>,
-    earlier: Vec<Row>,
-    rows: Vec<Row>,
-    error: Option<anyhow::Error>,
-}
-
-impl Journal {
-    /// Records the row of `p`, the first of this process at `p.step`.
-    fn record(&mut self, row: Row, resumed_from: impl FnOnce(u64)) -> Result<()> {
-        if self.file.is_none() {
-            let start = row.0 - 1;
-            self.rows = self.earlier.drain(..).filter(|r| r.0 <= start).collect();
-            if start > 0 {
-                resumed_from(start);
-                if self.rows.len() as u64 != start {
-                    log::warn!(
-                        "{}: loss rows of {} of the checkpoint's {start} steps; the loss log \
-                         lacks the others",
-                        self.path.display(),
-                        self.rows.len()
-                    );
-                }
-            }
-            let mut text = format!("{CSV_HEADER}\n");
-            self.rows.iter().for_each(|r| text += &r.line());
-            write_atomically(&self.path, text.as_bytes())?;
-            let file = std::fs::OpenOptions::new()
-                .append(true)
-                .open(&self.path)
-                .with_context(|| format!("cannot append to {}", self.path.display()))?;
-            self.file = Some(file);
-        }
-        if let Some(file) = &mut self.file {
-            file.write_all(row.line().as_bytes())
-                .with_context(|| format!("cannot write {}", self.path.display()))?;
-        }
-        self.rows.push(row);
-        Ok(())
-    }
-}
-
-/// Trains with a progress bar on a terminal, periodic log lines otherwise; returns the outcome
-/// and the loss rows from step 1 (the `earlier` journal rows the checkpoint covers, then this
-/// run's).
-fn run_with_progress(
-    o: &TrainOptions,
-    k: usize,
-    sampler: &mut DataSampler,
-    files: &Files,
-    earlier: Vec<Row>,
-) -> Result<(Outcome, Vec<Row>)> {
-    let terminal = std::io::stderr().is_terminal();
-    let bar = terminal.then(|| {
-        let bar = ProgressBar::new(o.steps);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:30}] {pos}/{len} {per_sec} ETA {eta} {msg}",
-            )
-            .expect("valid template")
-            .progress_chars("=> "),
-        );
-        bar
-    });
-    let mut journal = Journal {
-        path: files.journal.clone(),
-        file: None,
-        rows: Vec::new(),
-        earlier,
-        error: None,
-    };
-    let mut last_log = Instant::now();
-    let report = |p: &Progress| {
-        let t = &p.terms;
-        format!(
-            "loss {:.4e} (surface {:.3e}, orientation {:.3e}, plane {:.3e}, eikonal {:.3e}, spurious {:.3e}) lr {:.2e}",
-            p.loss, t.surface, t.orientation, t.plane, t.eikonal, t.spurious, p.lr
-        )
-    };
-    let checkpoint = files.checkpoint.display().to_string();
-    let outcome = trainer::train(o, k, sampler, |p| {
-        let row = Row::of(p.step, &p.terms, p.loss);
-        let resumed = |step| {
-            let line = format!("resumed from {checkpoint} at step {step} of {}", p.steps);
-            match &bar {
-                Some(bar) => bar.println(line),
-                None => eprintln!("{line}"),
-            }
-        };
-        if let Err(e) = journal.record(row, resumed) {
-            journal.error = Some(e);
-            return ControlFlow::Break(());
-        }
-        match &bar {
+impl Observer for Console {
+    fn step(&mut self, p: &Progress) -> ControlFlow<()> {
+        match &self.bar {
             Some(bar) => {
-                // A timed run's length is known once planned.
+                // A timed run's length is known once planned, and moves when re-planned.
                 bar.set_length(p.steps);
                 bar.set_position(p.step);
                 bar.set_message(report(p));
             }
-            None if last_log.elapsed() >= Duration::from_secs(10) || p.step == p.steps => {
+            None if self.last_log.elapsed() >= Duration::from_secs(10) || p.step == p.steps => {
                 eprintln!(
                     "step {}/{} {:.1} s {}",
                     p.step,
@@ -500,7 +308,7 @@ fn run_with_progress(
                     p.elapsed,
                     report(p)
                 );
-                last_log = Instant::now();
+                self.last_log = Instant::now();
             }
             None => {}
         }
@@ -509,81 +317,12 @@ fn run_with_progress(
         } else {
             ControlFlow::Continue(())
         }
-    });
-    if let Some(bar) = bar {
-        bar.finish();
     }
-    let outcome = outcome.context("training failed")?;
-    if let Some(e) = journal.error {
-        return Err(e.context("the loss log failed; the checkpoint is saved"));
-    }
-    if outcome.history.is_empty() && outcome.steps_done > 0 {
-        // Resumed from a checkpoint that already held every step: no step ran here.
-        eprintln!(
-            "{} already holds all {} steps",
-            files.checkpoint.display(),
-            outcome.steps_done
-        );
-        journal.rows = journal
-            .earlier
-            .into_iter()
-            .filter(|r| r.0 <= outcome.steps_done)
-            .collect();
-    }
-    Ok((outcome, journal.rows))
-}
 
-/// The loss terms of every step as CSV and a PNG curve, beside the model, each atomically.
-fn write_loss_log(files: &Files, rows: &[Row]) -> Result<()> {
-    let mut csv = format!("{CSV_HEADER}\n");
-    rows.iter().for_each(|r| csv += &r.line());
-    write_atomically(&files.csv, csv.as_bytes())?;
-    let names = [
-        "total",
-        "surface |f|",
-        "orientation",
-        "plane SDF",
-        "eikonal",
-        "spurious exp(-a|f|)",
-    ];
-    let all: Vec<Series> = names
-        .iter()
-        .enumerate()
-        .map(|(i, &name)| Series {
-            name,
-            points: rows.iter().map(|r| (r.0 as f64, r.1[i])).collect(),
-        })
-        .collect();
-    write_via(&files.png, |tmp| {
-        line_chart(
-            tmp,
-            "DynaSlice training loss",
-            "step",
-            "loss (unweighted terms)",
-            &all,
-            true,
-        )
-    })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rows_round_trip_and_torn_lines_end_the_journal() {
-        let r = Row(3, [0.1, 1e-30, 0.0, 2.5, 1.0 / 3.0, 7.0]);
-        assert_eq!(Row::parse(&r.line()), Some(r));
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("j.csv");
-        let text = format!(
-            "{CSV_HEADER}\n{}{}4,0.5,1",
-            Row(1, r.1).line(),
-            Row(2, r.1).line()
-        );
-        std::fs::write(&path, text).unwrap();
-        let rows = read_journal(&path).unwrap();
-        assert_eq!(rows.iter().map(|r| r.0).collect::<Vec<_>>(), [1, 2]);
-        assert!(read_journal(&dir.path().join("none")).unwrap().is_empty());
+    fn note(&mut self, line: &str) {
+        match &self.bar {
+            Some(bar) => bar.println(line),
+            None => eprintln!("{line}"),
+        }
     }
 }

@@ -37,6 +37,12 @@ fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {
     assert_eq!(csv.lines().count(), 1501, "header + one line per step");
     let png = std::fs::read(dir.path().join("straight.dsm.loss.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    for state in ["straight.dsm.ckpt", "straight.dsm.ckpt.loss.csv"] {
+        assert!(
+            !dir.path().join(state).exists(),
+            "a finished run removes {state}"
+        );
+    }
 
     // The same run, killed once its checkpoint holds some progress, then resumed.
     let resumed = dir.path().join("resumed.dsm");
@@ -76,6 +82,10 @@ fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {
         std::fs::read(&resumed).unwrap(),
         bytes.as_bytes(),
         "resumed model differs from the uninterrupted one"
+    );
+    assert!(
+        !ckpt.exists(),
+        "the resumed run, finished, removes its checkpoint"
     );
 }
 

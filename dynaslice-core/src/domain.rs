@@ -96,4 +96,14 @@ impl Domain {
     pub fn time_range(&self) -> (f32, f32) {
         (self.time_origin, self.time_origin + self.time_span)
     }
+
+    /// The one rule for a requested time, which every front end applies (the command line,
+    /// Python, the C ABI): `t` must lie in [`Domain::time_range`], to a rounding slack of 10⁻⁴
+    /// of the range. Outside it the network was never fitted and extrapolates freely, so a
+    /// time there is refused, never evaluated silently. NaN is outside.
+    pub fn contains_time(&self, t: f32) -> bool {
+        let (t0, t1) = self.time_range();
+        let slack = 1e-4 * libm::fabsf(t1 - t0).max(1e-6);
+        t >= t0 - slack && t <= t1 + slack
+    }
 }

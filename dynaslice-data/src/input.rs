@@ -24,6 +24,7 @@ use super::nifti::LabelVolume;
 use super::reslice::{reslice, ResliceOptions};
 use super::rtstruct::{self, RoiExtent};
 use super::sequence::Sequence;
+use super::space::{Space, Units};
 use super::{csl, manifest, native, nifti, nrrd};
 
 /// How the inputs are read. [`Default`] is what the command line does without options.
@@ -86,6 +87,40 @@ impl InputKind {
             .in_file(path));
         };
         Ok(kind)
+    }
+}
+
+impl InputKind {
+    /// The frame and units this kind's coordinates come in (`None` for a manifest: its
+    /// entries').
+    pub fn space(self) -> Option<(Space, Units)> {
+        match self {
+            InputKind::Nifti => Some((Space::Ras, Units::Millimetres)),
+            // Slicer and ITK write NRRD in LPS; RT Structure Sets are in DICOM's LPS.
+            InputKind::Nrrd | InputKind::RtStruct => Some((Space::Lps, Units::Millimetres)),
+            InputKind::Native | InputKind::Csl => Some((Space::Ras, Units::Plain)),
+            InputKind::Manifest => None,
+        }
+    }
+}
+
+/// The frame and units of inputs read together: the first input's (a manifest's first
+/// entry's), which the model records and its outputs default to.
+pub fn space_of(paths: &[PathBuf]) -> Result<(Space, Units)> {
+    let Some(first) = paths.first() else {
+        return Err(ErrorKind::Empty("no input".into()).into());
+    };
+    match InputKind::of(first)?.space() {
+        Some(space) => Ok(space),
+        None => {
+            let entries = manifest::read(first)?;
+            let entry = entries.first().ok_or_else(|| {
+                DataError::new(ErrorKind::Empty("an empty manifest".into())).in_file(first)
+            })?;
+            Ok(InputKind::of(&entry.path)?
+                .space()
+                .unwrap_or((Space::Ras, Units::Plain)))
+        }
     }
 }
 

@@ -66,6 +66,32 @@ pub fn line_chart(
     chart(path, title, x_label, y_label, series, &colors, log_y)
 }
 
+/// The training loss curve of a run: one series per term (`names`, in the order of each row's
+/// values), against the step, on a log scale; written atomically.
+pub fn loss_curve(path: &Path, names: &[&str], rows: &[(u64, &[f64])]) -> Result<()> {
+    let all: Vec<Series> = names
+        .iter()
+        .enumerate()
+        .map(|(i, &name)| Series {
+            name,
+            points: rows
+                .iter()
+                .filter_map(|(step, v)| Some((*step as f64, *v.get(i)?)))
+                .collect(),
+        })
+        .collect();
+    dynaslice_data::atomic::write_via(path, |tmp| {
+        line_chart(
+            tmp,
+            "DynaSlice training loss",
+            "step",
+            "loss (unweighted terms)",
+            &all,
+            true,
+        )
+    })
+}
+
 /// The runs of consecutive drawable points of `points` (finite, and positive on a log scale):
 /// each run is one polyline, so a gap separates runs.
 fn runs(points: &[(f64, f64)], log_y: bool) -> Vec<Vec<(f64, f64)>> {

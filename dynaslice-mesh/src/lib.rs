@@ -14,7 +14,6 @@
 
 #[cfg(test)]
 mod analytic;
-mod classes;
 pub mod field;
 pub mod geometry;
 pub mod io;
@@ -23,7 +22,6 @@ pub mod polygonise;
 pub mod sampling;
 pub mod vertices;
 
-pub use classes::resolve_classes;
 pub use field::{LevelSets, PointField, Source, Surfaces};
 pub use geometry::{Mesh, Topology};
 pub use lattice::Lattice;

@@ -2,7 +2,7 @@
 //! float64, contiguous or strided, read in place), evaluated in parallel chunks with the core's
 //! SIMD batch kernels, each worker thread with its own [`Scratch`].
 
-use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
+use dynaslice_core::{Domain, Model, Scratch, UNDEFINED_LABEL};
 use numpy::ndarray::{ArrayView1, ArrayView2};
 use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -193,6 +193,27 @@ impl<'py> TimesArg<'py> {
             "t must be float32 or float64, not {}",
             dtype_name(array)
         )))
+    }
+
+    /// The first time outside `domain`'s range ([`Domain::contains_time`], the rule of every
+    /// front end), with its point's index.
+    pub fn first_outside(&self, domain: &Domain) -> Option<(usize, f32)> {
+        let outside = |t: f32| !domain.contains_time(t);
+        match self {
+            TimesArg::Scalar(t) => outside(*t).then_some((0, *t)),
+            TimesArg::F32(a) => a
+                .as_array()
+                .iter()
+                .copied()
+                .enumerate()
+                .find(|&(_, t)| outside(t)),
+            TimesArg::F64(a) => a
+                .as_array()
+                .iter()
+                .map(|&t| t as f32)
+                .enumerate()
+                .find(|&(_, t)| outside(t)),
+        }
     }
 
     /// The times, packed when contiguous float32.

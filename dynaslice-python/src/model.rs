@@ -6,7 +6,7 @@ use dynaslice_core::{Model, ModelBytes};
 use dynaslice_data::nifti::{read_geometry, read_volume};
 use dynaslice_data::palette;
 use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
-use dynaslice_train::model_file::recorded_class_colors;
+use dynaslice_model::{recorded_class_colors, resolve_classes};
 use dynaslice_volume::{label_indices, source_labels, write_model_labels, VoxelGrid};
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
@@ -77,12 +77,32 @@ impl PyModel {
         let view = points.view();
         let n = view.len();
         let times = TimesArg::extract(t, n)?;
-        let times = times.view();
         let model = self.model();
+        if let Some((i, t)) = times.first_outside(&model.domain()) {
+            let at = if n > 1 {
+                format!(" (point {i})")
+            } else {
+                String::new()
+            };
+            return Err(outside(model, t, &at));
+        }
+        let times = times.view();
         let answers = py
             .detach(|| batch::evaluate(model, &view, &times, query))
             .map_err(core_error)?;
         Ok((n, answers))
+    }
+
+    /// An error unless every one of `times` is in the model's range.
+    fn check_times(&self, times: &[f64]) -> PyResult<()> {
+        let model = self.model();
+        match times
+            .iter()
+            .find(|&&t| !model.domain().contains_time(t as f32))
+        {
+            Some(&t) => Err(outside(model, t as f32, "")),
+            None => Ok(()),
+        }
     }
 
     /// (N, K) from a point-major buffer, without copying.
@@ -303,15 +323,8 @@ impl PyModel {
         )>,
     > {
         let model = self.model();
-        let channels = mesh::resolve_classes(model, &classes).map_err(PyValueError::new_err)?;
-        let (t0, t1) = model.domain().time_range();
-        // As `dynaslice mesh`: the network is only fitted on its time range.
-        let slack = 1e-4 * (t1 - t0).abs().max(1e-6);
-        if !(t >= t0 - slack && t <= t1 + slack) {
-            return Err(PyValueError::new_err(format!(
-                "time {t} is outside the model's time range [{t0}, {t1}]"
-            )));
-        }
+        let channels = resolve_classes(model, &classes).map_err(PyValueError::new_err)?;
+        self.check_times(&[f64::from(t)])?;
         let options = Options {
             resolution,
             sampling: if dense {
@@ -405,6 +418,15 @@ impl PyModel {
     }
 }
 
+/// The error of a time outside the model's range: the words of `dynaslice` (the model
+/// service's [`dynaslice_model::ModelFile::check_time`]), as a ValueError.
+fn outside(model: &Model, t: f32, at: &str) -> PyErr {
+    let (t0, t1) = model.domain().time_range();
+    PyValueError::new_err(format!(
+        "time {t}{at} is outside the model's time range [{t0}, {t1}]"
+    ))
+}
+
 impl PyModel {
     fn volume<'py>(
         &self,
@@ -413,6 +435,7 @@ impl PyModel {
         output: Option<PathBuf>,
         threads: Option<usize>,
     ) -> PyResult<(Bound<'py, PyArray1<i32>>, [usize; 3], usize)> {
+        self.check_times(&grid.times)?;
         let model = self.model();
         let frames = grid.times.len();
         let values = detach_result(py, || {

@@ -2,21 +2,27 @@
 //!
 //! The samples of step s are a pure function of (seed, s), so the state is just the step, the
 //! parameters and Adam's moments; a fingerprint of the run's options guards against resuming
-//! with different ones. A timed run's planned schedule length is kept too, so that a resumed run
-//! follows the same learning rates. Format (little-endian): magic `DSCKPT02`, u64 fingerprint,
-//! u64 step, u64 Adam t, u64 n, u64 planned schedule length (0: none), then n f32 parameters,
-//! n f32 m, n f32 v, and a CRC-32 of all that. `DSCKPT01` files (the same without the planned
-//! length) are still read. It is written atomically (temporary file, fsync, rename), so a kill
+//! with different ones. A timed run's schedule plan is kept too, so that a resumed run
+//! follows the same learning rates. Format (little-endian): magic `DSCKPT03`, u64 fingerprint,
+//! u64 step, u64 Adam t, u64 n, u64 planned schedule length (0: none), u64 the plan's anchor
+//! step, f64 its anchor phase ([`SchedulePlan`]), then n f32 parameters, n f32 m, n f32 v, and
+//! a CRC-32 of all that. `DSCKPT02` files (a plain plan: no anchor) and `DSCKPT01` files (no
+//! plan) are still read. The file's size is checked against the network before it is read. It is written atomically (temporary file, fsync, rename), so a kill
 //! mid-write leaves the previous checkpoint intact.
 
 use super::adam::Adam;
+use super::trainer::SchedulePlan;
 use anyhow::{bail, Context, Result};
 use dynaslice_data::atomic::write_atomically;
 use std::path::Path;
 
-const MAGIC: &[u8; 8] = b"DSCKPT02";
-/// The first format, without the planned schedule length.
+const MAGIC: &[u8; 8] = b"DSCKPT03";
+/// The second format, with a plain plan's length only.
+const MAGIC_V2: &[u8; 8] = b"DSCKPT02";
+/// The first format, without a plan.
 const MAGIC_V1: &[u8; 8] = b"DSCKPT01";
+/// The header's size (magic and words) in the current format.
+const HEADER: usize = 64;
 
 /// A training state.
 #[derive(Clone, Debug, PartialEq)]
@@ -29,19 +35,29 @@ pub struct Checkpoint {
     pub params: Vec<f32>,
     /// Optimiser state.
     pub adam: Adam,
-    /// The learning-rate schedule's length planned by a timed run
+    /// The learning-rate schedule planned by a timed run
     /// ([`crate::trainer::TrainOptions::time_limit`]), once planned.
-    pub planned_steps: Option<u64>,
+    pub plan: Option<SchedulePlan>,
 }
 
 impl Checkpoint {
     /// Serialises and writes atomically.
     pub fn save(&self, path: &Path) -> Result<()> {
         let n = self.params.len();
-        let mut out = Vec::with_capacity(48 + 12 * n + 4);
+        let mut out = Vec::with_capacity(HEADER + 12 * n + 4);
         out.extend_from_slice(MAGIC);
-        let planned = self.planned_steps.unwrap_or(0);
-        for v in [self.fingerprint, self.step, self.adam.t, n as u64, planned] {
+        let (length, anchor, phase) = self
+            .plan
+            .map_or((0, 0, 0.0), |p| (p.length, p.anchor_step, p.anchor_phase));
+        for v in [
+            self.fingerprint,
+            self.step,
+            self.adam.t,
+            n as u64,
+            length,
+            anchor,
+            phase.to_bits(),
+        ] {
             out.extend_from_slice(&v.to_le_bytes());
         }
         for v in self.params.iter().chain(&self.adam.m).chain(&self.adam.v) {
@@ -55,11 +71,27 @@ impl Checkpoint {
     /// Reads a checkpoint, checking its integrity and that it belongs to a run with
     /// `fingerprint` and `n` parameters; `adam` supplies the hyper-parameters.
     pub fn load(path: &Path, fingerprint: u64, n: usize, adam: &Adam) -> Result<Checkpoint> {
+        let what = |msg: &str| format!("checkpoint {}: {msg}", path.display());
+        let meta = std::fs::metadata(path)
+            .with_context(|| format!("cannot read checkpoint {}", path.display()))?;
+        if !meta.is_file() {
+            bail!(what("not a regular file"));
+        }
+        // Every format's size for `n` parameters; anything else is refused before reading.
+        if ![40, 48, HEADER]
+            .map(|h| (h + 12 * n + 4) as u64)
+            .contains(&meta.len())
+        {
+            bail!(what(&format!(
+                "{} bytes: not a checkpoint of this network's {n} parameters",
+                meta.len()
+            )));
+        }
         let bytes = std::fs::read(path)
             .with_context(|| format!("cannot read checkpoint {}", path.display()))?;
-        let what = |msg: &str| format!("checkpoint {}: {msg}", path.display());
         let header = match bytes.get(..8) {
-            Some(m) if m == MAGIC => 48,
+            Some(m) if m == MAGIC => HEADER,
+            Some(m) if m == MAGIC_V2 => 48,
             Some(m) if m == MAGIC_V1 => 40,
             _ => bail!(what("not a DynaSlice checkpoint")),
         };
@@ -83,7 +115,18 @@ impl Checkpoint {
         if word(3) != n as u64 {
             bail!(what("parameter count differs from this network"));
         }
-        let planned_steps = (header == 48 && word(4) > 0).then(|| word(4));
+        let plan = match header {
+            HEADER if word(4) > 0 => Some(SchedulePlan {
+                length: word(4),
+                anchor_step: word(5),
+                anchor_phase: f64::from_bits(word(6)),
+            }),
+            48 if word(4) > 0 => Some(SchedulePlan::plain(word(4))),
+            _ => None,
+        };
+        if plan.is_some_and(|p| !(0.0..=1.0).contains(&p.anchor_phase)) {
+            bail!(what("the schedule's phase is outside [0, 1]"));
+        }
         let floats: Vec<f32> = body[header..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
@@ -97,7 +140,7 @@ impl Checkpoint {
             step: word(1),
             params: floats[..n].to_vec(),
             adam,
-            planned_steps,
+            plan,
         })
     }
 }
@@ -118,20 +161,34 @@ mod tests {
             step: 7,
             params: vec![1.5, -2.0, 0.25],
             adam: adam.clone(),
-            planned_steps: Some(1234),
+            plan: Some(SchedulePlan {
+                anchor_step: 20,
+                anchor_phase: 0.125,
+                length: 1234,
+            }),
         };
         c.save(&path).unwrap();
         assert_eq!(Checkpoint::load(&path, 42, 3, &adam).unwrap(), c);
-        // A first-format file (no planned length) still reads.
-        let v2 = std::fs::read(&path).unwrap();
-        let mut v1 = [MAGIC_V1.as_slice(), &v2[8..40], &v2[48..v2.len() - 4]].concat();
-        v1.extend_from_slice(&dynaslice_core::crc32(&v1).to_le_bytes());
-        std::fs::write(&path, &v1).unwrap();
-        let old = Checkpoint::load(&path, 42, 3, &adam).unwrap();
+        // Earlier formats still read: the second with a plain plan of its length, the first
+        // with none.
+        let v3 = std::fs::read(&path).unwrap();
+        let older = |magic: &[u8; 8], header: usize| {
+            let mut b = [magic.as_slice(), &v3[8..header], &v3[HEADER..v3.len() - 4]].concat();
+            b.extend_from_slice(&dynaslice_core::crc32(&b).to_le_bytes());
+            std::fs::write(&path, &b).unwrap();
+            Checkpoint::load(&path, 42, 3, &adam).unwrap()
+        };
         assert_eq!(
-            old,
+            older(MAGIC_V2, 48),
             Checkpoint {
-                planned_steps: None,
+                plan: Some(SchedulePlan::plain(1234)),
+                ..c.clone()
+            }
+        );
+        assert_eq!(
+            older(MAGIC_V1, 40),
+            Checkpoint {
+                plan: None,
                 ..c.clone()
             }
         );
@@ -149,5 +206,11 @@ mod tests {
         assert!(err.contains("CRC mismatch"), "{err}");
         std::fs::write(&path, &bytes[..30]).unwrap();
         assert!(Checkpoint::load(&path, 42, 3, &adam).is_err());
+        // A file of another network's size is refused before it is read.
+        std::fs::write(&path, vec![0u8; 1 << 20]).unwrap();
+        let err = Checkpoint::load(&path, 42, 3, &adam)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("not a checkpoint of this network"), "{err}");
     }
 }

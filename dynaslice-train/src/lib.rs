@@ -11,6 +11,9 @@
 //! - [`adam`]: the optimiser; [`checkpoint`]: resumable state.
 //! - [`mod@bench`]: step throughput against the machine's sgemm peak.
 //! - [`trainer`]: the loop, with its schedule, time limit and checkpoints.
+//! - [`spec`]: every option of a run, its default and its allowed range; [`fit`]: the one
+//!   training entry (checks, frame, sampler, loop, loss [`journal`], model bytes) that the
+//!   command line, Python and the lab adapt.
 //! - [`model_file`]: a trained network's model file and the metadata it records.
 
 #![warn(missing_docs)]
@@ -19,6 +22,8 @@ pub mod adam;
 pub mod bench;
 pub mod checkpoint;
 pub mod data_sampler;
+pub mod fit;
+pub mod journal;
 pub mod loss;
 mod matmul;
 pub mod model_file;
@@ -28,6 +33,7 @@ pub mod passes;
 pub mod reverse_over_reverse;
 pub mod sampling;
 mod simd;
+pub mod spec;
 pub mod temporal_bound;
 pub mod trainer;
 

@@ -36,8 +36,12 @@ pub struct TrainOptions {
     pub steps: u64,
     /// Wall-clock budget. The run is planned to fit it: the step time is measured over the first
     /// [`CALIBRATION_STEPS`] and the learning-rate schedule set to end, at `lr_final`, when the
-    /// budget is spent (at most `steps`; [`Outcome::planned_steps`]). The run also stops when
-    /// the budget is spent, whatever the plan.
+    /// budget is spent (at most `steps`; [`Outcome::planned_steps`]). The step time is then
+    /// measured again at every step (the median of the last [`REPLAN_WINDOW`]) and the rest of
+    /// the schedule re-planned when it moves, so the run ends annealed within the last few
+    /// percent of the budget however the machine's speed changes ([`SchedulePlan`]). The run
+    /// also stops when the budget is spent, whatever the plan. A run resumed from a checkpoint
+    /// keeps the checkpoint's plan.
     pub time_limit: Option<Duration>,
     /// SIREN's ω₀: the first layer's spatial frequency scale over the normalised cube.
     pub omega_0: f32,
@@ -74,7 +78,7 @@ impl Default for TrainOptions {
     fn default() -> Self {
         TrainOptions {
             widths: vec![256; 4],
-            steps: 3000,
+            steps: crate::spec::DEFAULT_STEPS,
             time_limit: None,
             omega_0: 10.0,
             offset: 0.2,
@@ -93,7 +97,9 @@ impl Default for TrainOptions {
             },
             omega_t_max: f32::INFINITY,
             checkpoint: None,
-            checkpoint_every: Duration::from_secs(120),
+            checkpoint_every: Duration::from_secs_f64(
+                crate::spec::DEFAULT_CHECKPOINT_MINUTES * 60.0,
+            ),
             resume: false,
         }
     }
@@ -136,8 +142,17 @@ pub struct Progress {
 pub const CALIBRATION_STEPS: u64 = 10;
 
 /// Share of the time budget a plan fills: the rest absorbs step-time noise and the final
-/// checkpoint, so the schedule ends before the hard stop.
-const PLAN_SHARE: f64 = 0.95;
+/// checkpoint, so the schedule ends before the hard stop. Re-planning keeps the plan true as
+/// the run goes, so little margin is needed.
+const PLAN_SHARE: f64 = 0.985;
+
+/// Steps whose median time a re-plan uses: long enough to ignore a stray slow step, short
+/// enough to follow a machine that slows down within seconds.
+pub const REPLAN_WINDOW: usize = 16;
+
+/// A re-plan changes the schedule only when the new length differs from the current one by
+/// more than this share of the steps left (or 2 steps), so step-time noise does not move it.
+const REPLAN_TOLERANCE: f64 = 0.02;
 
 /// The trained network and its history.
 pub struct Outcome {
@@ -149,24 +164,67 @@ pub struct Outcome {
     pub history: Vec<(u64, LossTerms, f64)>,
     /// Wall time of this process's training.
     pub elapsed: Duration,
-    /// Length of the learning-rate schedule a timed run planned (recorded in its checkpoint and
-    /// reused on resume); `None` when the schedule was `steps` (no time limit, or the budget ran
-    /// out before the plan).
+    /// Length of the learning-rate schedule a timed run planned last (recorded in its
+    /// checkpoint and reused on resume); `None` when the schedule was `steps` (no time limit,
+    /// or the budget ran out before the plan).
     pub planned_steps: Option<u64>,
+    /// The median wall time of this process's steps after its first (`None` with fewer than
+    /// two): what a plan is made from.
+    pub median_step_seconds: Option<f64>,
+}
+
+/// A timed run's learning-rate schedule: from `anchor_step` on, the cosine's phase runs
+/// linearly from `anchor_phase` to 1 at `length`. The first plan anchors at the end of the
+/// calibration steps with phase 0; a re-plan anchors at the step it is made with the phase
+/// reached there, so the learning rate never jumps, only the pace of its decay changes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SchedulePlan {
+    /// The step the plan was made at (0-based: the next step to run).
+    pub anchor_step: u64,
+    /// The cosine's phase in [0, 1] at `anchor_step`.
+    pub anchor_phase: f64,
+    /// The schedule's length: the phase reaches 1 at this step.
+    pub length: u64,
+}
+
+impl SchedulePlan {
+    /// The plain schedule of `length` steps: phase 0 through the calibration steps, then linear
+    /// to 1 at `length`.
+    pub fn plain(length: u64) -> SchedulePlan {
+        SchedulePlan {
+            anchor_step: CALIBRATION_STEPS.min(length),
+            anchor_phase: 0.0,
+            length,
+        }
+    }
+
+    /// The cosine's phase at `step` (0-based), in [0, 1].
+    pub fn phase(&self, step: u64) -> f64 {
+        let done = step.saturating_sub(self.anchor_step) as f64;
+        let span = self.length.saturating_sub(self.anchor_step).max(1) as f64;
+        self.anchor_phase + (1.0 - self.anchor_phase) * (done / span).min(1.0)
+    }
+
+    /// The plan from `step` on with a new `length`, continuing this plan's phase.
+    fn replanned(&self, step: u64, length: u64) -> SchedulePlan {
+        SchedulePlan {
+            anchor_step: step,
+            anchor_phase: self.phase(step),
+            length,
+        }
+    }
 }
 
 /// Learning rate at `step` (0-based) of a schedule `o.steps` long ([`schedule_rate`]).
 pub fn learning_rate(o: &TrainOptions, step: u64) -> f32 {
-    schedule_rate(o, o.steps, step)
+    schedule_rate(o, &SchedulePlan::plain(o.steps), step)
 }
 
-/// Learning rate at `step` (0-based) of a schedule `length` steps long: `lr` for the first
-/// [`CALIBRATION_STEPS`], then a cosine to `lr_final` at step `length`; scaled by
+/// Learning rate at `step` (0-based) of `plan`: `lr` for the first [`CALIBRATION_STEPS`],
+/// then a cosine to `lr_final` at the plan's end ([`SchedulePlan::phase`]); scaled by
 /// (step + 1) / `warmup_steps` during the warm-up.
-pub fn schedule_rate(o: &TrainOptions, length: u64, step: u64) -> f32 {
-    let hold = CALIBRATION_STEPS.min(length);
-    let x = (step.saturating_sub(hold) as f64 / (length - hold).max(1) as f64).min(1.0);
-    let c = 0.5 * (1.0 + (std::f64::consts::PI * x).cos());
+pub fn schedule_rate(o: &TrainOptions, plan: &SchedulePlan, step: u64) -> f32 {
+    let c = 0.5 * (1.0 + (std::f64::consts::PI * plan.phase(step)).cos());
     let warmup = if step < o.warmup_steps {
         (step + 1) as f64 / o.warmup_steps as f64
     } else {
@@ -177,7 +235,7 @@ pub fn schedule_rate(o: &TrainOptions, length: u64, step: u64) -> f32 {
 
 /// The schedule length that ends a run, now at `step` after `elapsed`, when `limit` is spent
 /// (a share [`PLAN_SHARE`] of it), at `per_step` seconds a step; between `step` and `cap`.
-fn plan(step: u64, cap: u64, elapsed: Duration, limit: Duration, per_step: f64) -> u64 {
+fn plan_length(step: u64, cap: u64, elapsed: Duration, limit: Duration, per_step: f64) -> u64 {
     let left = (limit.as_secs_f64() * PLAN_SHARE - elapsed.as_secs_f64()).max(0.0);
     let more = if per_step > 0.0 {
         (left / per_step).floor().min(u64::MAX as f64 / 2.0) as u64
@@ -225,67 +283,75 @@ pub fn train(
     let mut adam = Adam::new(net.params.len(), AdamConfig::default());
     let print = fingerprint(o, num_classes, sampler.fingerprint());
     let mut step = 0;
-    let mut planned_steps = None;
+    let mut plan: Option<SchedulePlan> = None;
     if let (true, Some(path)) = (o.resume, &o.checkpoint) {
         if path.exists() {
             let c = Checkpoint::load(path, print, net.params.len(), &adam)?;
             net.params = c.params;
             adam = c.adam;
             step = c.step;
-            planned_steps = c.planned_steps;
+            plan = c.plan;
         }
     }
+    // A resumed run follows the schedule its checkpoint recorded, so that it ends where the
+    // interrupted run would have (its own budget counts only its own steps).
+    let replan = o.time_limit.filter(|_| plan.is_none());
     let mut objective = Objective::new(&net, o.threads.max(1), sampler.max_set_len());
     let mut batch = Batch::default();
     let mut grad = vec![0.0; net.params.len()];
     let mut history = Vec::new();
-    let mut step_seconds = Vec::new();
+    // The last steps' wall times, the process's first step left out (threads, caches).
+    let mut recent = StepTimes::default();
     let start = Instant::now();
     let mut last_checkpoint = start;
-    let save = |net: &Network, adam: &Adam, step: u64, planned_steps| -> Result<()> {
+    let save = |net: &Network, adam: &Adam, step: u64, plan| -> Result<()> {
         match &o.checkpoint {
             Some(path) => Checkpoint {
                 fingerprint: print,
                 step,
                 params: net.params.clone(),
                 adam: adam.clone(),
-                planned_steps,
+                plan,
             }
             .save(path),
             None => Ok(()),
         }
     };
+    let mut first_of_process = true;
     loop {
-        let length = planned_steps.unwrap_or(o.steps);
-        if step >= length || o.time_limit.is_some_and(|limit| start.elapsed() >= limit) {
+        let current = plan.unwrap_or_else(|| SchedulePlan::plain(o.steps));
+        if step >= current.length || o.time_limit.is_some_and(|limit| start.elapsed() >= limit) {
             break;
         }
         let began = Instant::now();
         sampler.sample(o.seed, step, &mut batch);
         let terms = pool.install(|| objective.evaluate(&net, &batch, &o.loss, &mut grad));
-        let lr = schedule_rate(o, length, step);
+        let lr = schedule_rate(o, &current, step);
         adam.step(&mut net.params, &grad, lr);
         net.clamp_temporal_frequencies();
         step += 1;
-        if let (None, Some(limit)) = (planned_steps, o.time_limit) {
-            step_seconds.push(began.elapsed().as_secs_f64());
-            // Planned as soon as the calibration steps are done, before this step's checkpoint
-            // or an early stop, so every checkpoint after them holds the plan.
-            if step == CALIBRATION_STEPS.min(o.steps) {
-                // The first step of a process is slower (threads, caches): left out when others
-                // were measured.
-                let first = usize::from(step_seconds.len() > 1);
-                let measured = &mut step_seconds[first..];
-                measured.sort_by(f64::total_cmp);
-                let per_step = measured[measured.len() / 2];
-                planned_steps = Some(plan(step, o.steps, start.elapsed(), limit, per_step));
+        let seconds = began.elapsed().as_secs_f64();
+        recent.push(seconds, first_of_process);
+        first_of_process = false;
+        // Planned as soon as the calibration steps are done and re-planned after every later
+        // step, before this step's checkpoint or an early stop, so every checkpoint after them
+        // holds the plan its steps followed.
+        if let Some(limit) = replan {
+            if step >= CALIBRATION_STEPS.min(o.steps) {
+                let per_step = recent.median().unwrap_or(seconds);
+                let length = plan_length(step, o.steps, start.elapsed(), limit, per_step);
+                plan = Some(match plan {
+                    None => SchedulePlan::plain(length),
+                    Some(p) if moved(p.length, length, step) => p.replanned(step, length),
+                    Some(p) => p,
+                });
             }
         }
         let loss = terms.total(&o.loss);
         history.push((step, terms, loss));
         let flow = on_step(&Progress {
             step,
-            steps: length,
+            steps: current.length,
             terms,
             loss,
             lr,
@@ -295,18 +361,57 @@ pub fn train(
             break;
         }
         if last_checkpoint.elapsed() >= o.checkpoint_every {
-            save(&net, &adam, step, planned_steps)?;
+            save(&net, &adam, step, plan)?;
             last_checkpoint = Instant::now();
         }
     }
-    save(&net, &adam, step, planned_steps)?;
+    save(&net, &adam, step, plan)?;
     Ok(Outcome {
         network: net,
         steps_done: step,
         history,
         elapsed: start.elapsed(),
-        planned_steps,
+        planned_steps: plan.map(|p| p.length),
+        median_step_seconds: recent.median(),
     })
+}
+
+/// The wall times of the last [`REPLAN_WINDOW`] steps.
+#[derive(Default)]
+struct StepTimes {
+    last: std::collections::VecDeque<f64>,
+    /// The process's first step, used only while no other was measured.
+    first: Option<f64>,
+}
+
+impl StepTimes {
+    fn push(&mut self, seconds: f64, first_of_process: bool) {
+        if first_of_process {
+            self.first = Some(seconds);
+            return;
+        }
+        if self.last.len() == REPLAN_WINDOW {
+            self.last.pop_front();
+        }
+        self.last.push_back(seconds);
+    }
+
+    /// The median of the window (the first step's time while it is the only one).
+    fn median(&self) -> Option<f64> {
+        if self.last.is_empty() {
+            return self.first;
+        }
+        let mut v: Vec<f64> = self.last.iter().copied().collect();
+        v.sort_by(f64::total_cmp);
+        Some(v[v.len() / 2])
+    }
+}
+
+/// Whether a re-plan to `new` steps, made at `step`, moves the schedule of `old` steps: by more
+/// than [`REPLAN_TOLERANCE`] of the steps left, or 2 steps.
+fn moved(old: u64, new: u64, step: u64) -> bool {
+    let left = old.saturating_sub(step) as f64;
+    (new as f64 - old as f64).abs() > (REPLAN_TOLERANCE * left).max(2.0)
 }
 
 #[cfg(test)]
@@ -483,10 +588,11 @@ mod tests {
     }
 
     /// A timed run plans its schedule after the calibration steps and records the plan in its
-    /// checkpoint: interrupted and resumed, it ends bit for bit where a run of exactly the
-    /// planned steps ends, with the cosine completed.
+    /// checkpoint: interrupted and resumed (with another budget), it follows the recorded plan
+    /// to its end, bit for bit as a second resume from the same checkpoint does, with the
+    /// cosine completed.
     #[test]
-    fn timed_run_plans_its_schedule_and_resumes_bit_identical() {
+    fn timed_run_plans_its_schedule_and_a_resumed_run_keeps_it() {
         let dir = tempfile::tempdir().unwrap();
         let ckpt = dir.path().join("timed.ckpt");
         let timed = |limit: f64| TrainOptions {
@@ -509,21 +615,31 @@ mod tests {
             "the budget, not the cap, sets the plan"
         );
         assert!(planned >= CALIBRATION_STEPS);
-        // Resumed with another budget, the recorded plan still decides the schedule.
-        let mut last_lr = 0.0;
-        let resumed = train(&timed(3600.0), 1, &mut Sphere, |p| {
-            assert_eq!(p.steps, planned);
-            last_lr = p.lr;
-            ControlFlow::Continue(())
-        })
-        .unwrap();
+        let copy = dir.path().join("copy.ckpt");
+        std::fs::copy(&ckpt, &copy).unwrap();
+        let o = timed(3600.0);
+        let resume = |path: &PathBuf| {
+            let mut rates = Vec::new();
+            let out = train(
+                &TrainOptions {
+                    checkpoint: Some(path.clone()),
+                    ..o.clone()
+                },
+                1,
+                &mut Sphere,
+                |p| {
+                    assert_eq!(p.steps, planned);
+                    rates.push(p.lr);
+                    ControlFlow::Continue(())
+                },
+            )
+            .unwrap();
+            (out, rates)
+        };
+        let (resumed, rates) = resume(&ckpt);
         assert_eq!(resumed.steps_done, planned);
         assert_eq!(resumed.planned_steps, Some(planned));
-        let straight = train(&options(planned, None), 1, &mut Sphere, |_| {
-            ControlFlow::Continue(())
-        })
-        .unwrap();
-        assert_eq!(straight.planned_steps, None);
+        let (again, _) = resume(&copy);
         let bits = |o: &Outcome| {
             o.network
                 .params
@@ -531,30 +647,103 @@ mod tests {
                 .map(|v| v.to_bits())
                 .collect::<Vec<_>>()
         };
-        assert_eq!(bits(&resumed), bits(&straight));
-        let o = options(planned, None);
+        assert_eq!(bits(&resumed), bits(&again));
+        let last_lr = *rates.last().unwrap();
         if planned > CALIBRATION_STEPS + 1 {
-            assert!((last_lr - schedule_rate(&o, planned, planned - 1)).abs() == 0.0);
             assert!(last_lr < 0.01 * o.lr + o.lr_final, "{last_lr}");
         }
+        assert!(
+            rates.windows(2).all(|w| w[1] <= w[0]),
+            "the rate only decays"
+        );
+    }
+
+    /// The sphere, with steps that take `fast` seconds until `switch` into the run, then `slow`:
+    /// a machine that gets busy part way through.
+    struct Slowing {
+        start: Instant,
+        switch: Duration,
+        fast: Duration,
+        slow: Duration,
+    }
+
+    impl Sampler for Slowing {
+        fn sample(&mut self, seed: u64, step: u64, b: &mut Batch) {
+            let pause = if self.start.elapsed() < self.switch {
+                self.fast
+            } else {
+                self.slow
+            };
+            std::thread::sleep(pause);
+            Sphere.sample(seed, step, b);
+        }
+        fn max_set_len(&self) -> usize {
+            Sphere.max_set_len()
+        }
+        fn fingerprint(&self) -> u64 {
+            Sphere.fingerprint()
+        }
+    }
+
+    /// A timed run whose steps become four times slower part way through re-plans: it uses at
+    /// least 97% of its budget and its last step runs at (nearly) the final learning rate.
+    #[test]
+    fn a_timed_run_replans_when_the_machine_slows_down() {
+        let limit = Duration::from_secs(4);
+        let o = TrainOptions {
+            time_limit: Some(limit),
+            ..options(1_000_000, None)
+        };
+        let mut sampler = Slowing {
+            start: Instant::now(),
+            switch: Duration::from_millis(1500),
+            fast: Duration::from_millis(5),
+            slow: Duration::from_millis(20),
+        };
+        let mut lengths = Vec::new();
+        let mut last_lr = f32::INFINITY;
+        let out = train(&o, 1, &mut sampler, |p| {
+            lengths.push(p.steps);
+            last_lr = p.lr;
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        let planned = out.planned_steps.expect("planned");
+        assert_eq!(
+            out.steps_done, planned,
+            "the plan, not the hard stop, ended it"
+        );
+        let used = out.elapsed.as_secs_f64() / limit.as_secs_f64();
+        assert!((0.97..=1.0).contains(&used), "used {used:.3} of the budget");
+        assert!(last_lr < 0.01 * o.lr + o.lr_final, "last rate {last_lr}");
+        // The first plan assumed fast steps: the slowdown shortened it.
+        let first_plan = lengths[CALIBRATION_STEPS as usize];
+        assert!(planned < first_plan, "plan {first_plan} -> {planned}");
     }
 
     #[test]
     fn plans_fill_the_budget_within_the_cap() {
         let secs = Duration::from_secs_f64;
-        // 100 s budget, 5 s spent at step 10, 0.5 s a step: (95 − 5) / 0.5 = 180 more.
-        assert_eq!(plan(10, 10_000, secs(5.0), secs(100.0), 0.5), 190);
-        assert_eq!(plan(10, 50, secs(5.0), secs(100.0), 0.5), 50);
+        // 100 s budget, 5 s spent at step 10, 0.5 s a step: (98.5 − 5) / 0.5 = 187 more.
+        assert_eq!(plan_length(10, 10_000, secs(5.0), secs(100.0), 0.5), 197);
+        assert_eq!(plan_length(10, 50, secs(5.0), secs(100.0), 0.5), 50);
         // Budget already spent: no more steps; a zero step time: the cap.
-        assert_eq!(plan(10, 50, secs(200.0), secs(100.0), 0.5), 10);
-        assert_eq!(plan(10, 50, secs(1.0), secs(100.0), 0.0), 50);
+        assert_eq!(plan_length(10, 50, secs(200.0), secs(100.0), 0.5), 10);
+        assert_eq!(plan_length(10, 50, secs(1.0), secs(100.0), 0.0), 50);
         // The schedule holds lr through the calibration steps, then the cosine ends at lr_final.
         let o = options(100, None);
+        let (short, long) = (SchedulePlan::plain(40), SchedulePlan::plain(4000));
         for s in 0..CALIBRATION_STEPS {
-            assert_eq!(schedule_rate(&o, 40, s), o.lr);
-            assert_eq!(schedule_rate(&o, 4000, s), o.lr);
+            assert_eq!(schedule_rate(&o, &short, s), o.lr);
+            assert_eq!(schedule_rate(&o, &long, s), o.lr);
         }
-        assert!(schedule_rate(&o, 40, 11) < o.lr);
-        assert!((schedule_rate(&o, 40, 40) - o.lr_final).abs() < 1e-9);
+        assert!(schedule_rate(&o, &short, 11) < o.lr);
+        assert!((schedule_rate(&o, &short, 40) - o.lr_final).abs() < 1e-9);
+        // A re-plan continues the phase where it was: no jump, and the end at lr_final.
+        let longer = short.replanned(20, 100);
+        assert_eq!(longer.phase(20), short.phase(20));
+        assert!(longer.phase(21) < short.phase(21));
+        assert!((schedule_rate(&o, &longer, 100) - o.lr_final).abs() < 1e-9);
+        assert!(!moved(1000, 1010, 500) && moved(1000, 1011, 500) && moved(20, 23, 19));
     }
 }

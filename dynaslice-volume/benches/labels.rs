@@ -22,12 +22,10 @@
 use anyhow::{bail, Context, Result};
 use dynaslice_core::{Model, ModelBytes, Scratch};
 use dynaslice_data::synth::{self, BenchmarkOptions, Shape};
-use dynaslice_train::data_sampler::{domain_for, DataSampler, SampleCounts};
-use dynaslice_train::model_file::TrainedModel;
-use dynaslice_train::temporal_bound::{temporal_bound, DEFAULT_TEMPORAL_FACTOR};
-use dynaslice_train::trainer::{train, TrainOptions};
+use dynaslice_data::{Space, Units};
+use dynaslice_train::fit::{fit, InputRecord, Quiet};
+use dynaslice_train::spec::TrainSpec;
 use dynaslice_volume::{label_indices_with, Evaluation, VoxelGrid, DEFAULT_SAFETY};
-use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -75,38 +73,25 @@ fn trained_model(a: &Args) -> Result<ModelBytes> {
         return Ok(ModelBytes::read(&a.model)?);
     }
     let seq = synth::slice_sequence(Shape::Chambers, &BenchmarkOptions::default())?;
-    let domain = domain_for(&seq);
-    let options = TrainOptions {
-        widths: TrainOptions::default().widths,
-        steps: a.steps,
-        omega_t_max: temporal_bound(&seq, &domain, DEFAULT_TEMPORAL_FACTOR, true),
-        ..TrainOptions::default()
+    let spec = TrainSpec {
+        steps: Some(a.steps),
+        ..TrainSpec::default()
     };
-    let counts = SampleCounts::default();
-    let mut sampler = DataSampler::new(&seq, domain, counts);
+    let input = InputRecord {
+        description: "synth chambers (labels bench)".into(),
+        frames: "0:".into(),
+        space: Space::Ras,
+        units: Units::Plain,
+    };
     eprintln!("training {} steps on the synthetic chambers", a.steps);
-    let outcome = train(&options, seq.classes().len(), &mut sampler, |_| {
-        ControlFlow::Continue(())
-    })?;
-    let bytes = TrainedModel {
-        outcome: &outcome,
-        domain,
-        classes: seq.classes(),
-        options: &options,
-        counts,
-        temporal_factor: DEFAULT_TEMPORAL_FACTOR,
-        class_weights: None,
-        input: "input = synth chambers (labels bench)",
-    }
-    .to_bytes()
-    .map_err(|e| anyhow::anyhow!("{e}"))?;
-    std::fs::write(&a.model, bytes.as_bytes())?;
+    let trained = fit(&seq, &spec, &input, None, &mut Quiet)?;
+    std::fs::write(&a.model, trained.bytes.as_bytes())?;
     eprintln!(
         "trained in {:.0} s, saved to {}",
-        outcome.elapsed.as_secs_f64(),
+        trained.elapsed.as_secs_f64(),
         a.model.display()
     );
-    Ok(bytes)
+    Ok(trained.bytes)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

@@ -49,15 +49,12 @@ struct ScheduleArgs {
 }
 
 fn schedule(a: ScheduleArgs) -> anyhow::Result<()> {
-    use dynaslice_train::trainer::TrainOptions;
     let protocol = experiments::Protocol {
         minutes: a.minutes,
-        options: TrainOptions {
-            threads: a.threads.max(1),
-            ..TrainOptions::default()
+        spec: dynaslice_train::spec::TrainSpec {
+            threads: Some(a.threads.max(1)),
+            ..Default::default()
         },
-        counts: Default::default(),
-        temporal_factor: dynaslice_train::temporal_bound::DEFAULT_TEMPORAL_FACTOR,
     };
     println!("| shape | schedule | seed | steps / schedule | s | IoU | CD×10⁴ |");
     println!("|---|---|---|---|---|---|---|");

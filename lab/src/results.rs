@@ -7,7 +7,6 @@ use crate::experiments::synthetic::{self, Run, Scene, Variant};
 use crate::experiments::Protocol;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_cli::loss::LossArgs;
-use dynaslice_cli::widths::check_widths;
 use dynaslice_data::atomic::write_atomically;
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::nifti::read_volume;
@@ -17,6 +16,7 @@ use dynaslice_data::LabelTable;
 use dynaslice_metrics::benchmark::Resolution;
 use dynaslice_metrics::heldout::Split;
 use dynaslice_train::data_sampler::SampleCounts;
+use dynaslice_train::spec::TrainSpec;
 use dynaslice_train::temporal_bound::DEFAULT_TEMPORAL_FACTOR;
 use dynaslice_train::trainer::TrainOptions;
 use std::collections::HashMap;
@@ -175,7 +175,6 @@ impl Report {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    check_widths(&a.widths)?;
     let variants = a
         .variants
         .iter()
@@ -189,25 +188,22 @@ pub fn run(a: Args) -> Result<()> {
     let wants = |t: &str| a.tables.iter().any(|x| x == t);
     let protocol = Protocol {
         minutes: a.minutes,
-        options: TrainOptions {
-            widths: a.widths.clone(),
-            threads: a.threads.max(1),
-            lr: a.lr,
-            lr_final: a.lr / 10.0,
-            warmup_steps: a.warmup_steps,
-            omega_0: a.omega0,
-            offset: a.init_offset,
-            loss: a.loss.weights(true),
-            ..TrainOptions::default()
-        },
-        counts: SampleCounts {
-            contour_per_class: a.samples,
-            plane_per_class: a.samples,
-            space: a.samples,
-            ..SampleCounts::default()
-        },
-        temporal_factor: a.temporal_factor,
+        spec: a.loss.apply(TrainSpec {
+            widths: Some(a.widths.clone()),
+            threads: Some(a.threads.max(1)),
+            lr: Some(a.lr),
+            warmup_steps: Some(a.warmup_steps),
+            omega0: Some(a.omega0),
+            init_offset: Some(a.init_offset),
+            contour_samples: Some(a.samples),
+            plane_samples: Some(a.samples),
+            space_samples: Some(a.samples),
+            temporal_factor: Some(a.temporal_factor),
+            ..TrainSpec::default()
+        }),
     };
+    // Every option checked, by the rules `dynaslice train` applies, before any work.
+    protocol.spec.validate()?;
     let command = std::iter::once("dynaslice-lab".to_string())
         .chain(std::env::args().skip(1))
         .collect::<Vec<_>>()

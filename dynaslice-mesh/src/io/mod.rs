@@ -22,15 +22,16 @@ pub mod pvd;
 mod stl;
 mod vtp;
 
+/// The frame mesh vertices are written in (re-exported: meshes, label maps and the model's
+/// record of its input share it).
+pub use dynaslice_data::Space;
 pub use files::{class_tag, MeshFiles};
 pub use stl::read_stl;
 
 use super::Mesh;
 use anyhow::{bail, ensure, Context, Result};
 use dynaslice_data::atomic::write_atomically;
-use std::fmt;
 use std::path::Path;
-use std::str::FromStr;
 
 /// A mesh file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -75,91 +76,6 @@ impl Format {
                 "{}: unknown mesh format {ext:?}; use .ply, .obj, .stl or .vtp",
                 path.display()
             ),
-        }
-    }
-}
-
-/// The coordinate frame of a mesh file's vertices.
-///
-/// Our world is RAS; [`Space::Lps`] (the default) negates x and y, a rotation by 180° about z,
-/// so triangle winding and outward normals stay outward. LPS is what 3D Slicer assumes for a
-/// model file without a tag and what ITK-based tools use, so the default lands on the label
-/// volume in Slicer with or without the tag; RAS suits tools that place meshes in NIfTI world
-/// coordinates directly (e.g. nibabel, FreeSurfer surfaces).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
-pub enum Space {
-    /// Right, anterior, superior: our world frame, unchanged.
-    Ras,
-    /// Left, posterior, superior: x and y negated (DICOM's and ITK's patient frame).
-    #[default]
-    Lps,
-}
-
-impl Space {
-    /// Both frames.
-    pub const ALL: [Space; 2] = [Space::Ras, Space::Lps];
-
-    /// The frame's name as the file tags spell it: `RAS` or `LPS`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Space::Ras => "RAS",
-            Space::Lps => "LPS",
-        }
-    }
-
-    /// The tag 3D Slicer looks for in headers and comments: `SPACE=RAS` or `SPACE=LPS`.
-    pub fn tag(self) -> String {
-        format!("SPACE={}", self.name())
-    }
-
-    /// A point or vector of our RAS world in this frame. The map is its own inverse, so it also
-    /// takes this frame's coordinates back to RAS.
-    #[inline]
-    pub fn from_ras(self, p: [f32; 3]) -> [f32; 3] {
-        match self {
-            Space::Ras => p,
-            Space::Lps => [-p[0], -p[1], p[2]],
-        }
-    }
-
-    /// A point or vector of this frame in our RAS world (the same map as [`Space::from_ras`]).
-    #[inline]
-    pub fn to_ras(self, p: [f32; 3]) -> [f32; 3] {
-        self.from_ras(p)
-    }
-
-    /// The frame a header or comment names, by 3D Slicer's rule: the first of `SPACE=RAS`,
-    /// `SPACE=LPS` found as a substring (RAS checked first, as Slicer does); `None` when neither.
-    pub fn find_tag(text: &[u8]) -> Option<Space> {
-        let has = |needle: &[u8]| text.windows(needle.len()).any(|w| w == needle);
-        if has(b"SPACE=RAS") {
-            Some(Space::Ras)
-        } else if has(b"SPACE=LPS") {
-            Some(Space::Lps)
-        } else {
-            None
-        }
-    }
-}
-
-impl fmt::Display for Space {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Space::Ras => "ras",
-            Space::Lps => "lps",
-        })
-    }
-}
-
-impl FromStr for Space {
-    type Err = anyhow::Error;
-
-    /// `ras` or `lps`, case-insensitive.
-    fn from_str(s: &str) -> Result<Space> {
-        match s.to_ascii_lowercase().as_str() {
-            "ras" => Ok(Space::Ras),
-            "lps" => Ok(Space::Lps),
-            _ => bail!("unknown coordinate frame {s:?}; use ras or lps"),
         }
     }
 }

@@ -335,15 +335,19 @@ def random_model(widths: Sequence[int], num_classes: int, seed: int = 0) -> Mode
     return Model(_dynaslice.random_model(list(widths), num_classes, seed))
 
 
-def _progress_bar(total: int) -> Optional[Callable[[dict], None]]:
-    """A tqdm bar fed by the training callback, when tqdm is installed."""
+def _progress_bar() -> Optional[Callable[[dict], None]]:
+    """A tqdm bar fed by the training callback, when tqdm is installed; its length follows the
+    run's schedule (a timed run's plan moves as the machine's speed changes)."""
     try:
         from tqdm.auto import tqdm
     except ImportError:
         return None
-    bar = tqdm(total=total, unit="step", desc="dynaslice train")
+    bar = tqdm(total=None, unit="step", desc="dynaslice train")
 
     def update(p: dict) -> None:
+        if bar.total != p["steps"]:
+            bar.total = p["steps"]
+            bar.refresh()
         bar.update(p["step"] - bar.n)
         bar.set_postfix(loss="%.3e" % p["loss"], refresh=False)
         if p["step"] >= p["steps"]:
@@ -358,7 +362,7 @@ def train(
     *,
     steps: Optional[int] = None,
     minutes: Optional[float] = None,
-    seed: int = 0,
+    seed: Optional[int] = None,
     threads: Optional[int] = None,
     progress: Union[bool, Callable[[dict], Any]] = True,
     **options: Any,
@@ -366,16 +370,22 @@ def train(
     """Trains a model on cross-sections and writes it to ``output``, as ``dynaslice train``.
 
     ``inputs``: one path or several (views of one subject): native JSON, ``.csl``, ``.seq`` /
-    ``.cslseq`` manifests, NIfTI label maps. ``steps`` (default 3000) and ``minutes`` bound
-    the run; ``seed`` and ``threads`` (default: all cores) make it reproducible. ``progress``:
+    ``.cslseq`` manifests, NIfTI, NRRD and ``.seg.nrrd`` label maps, DICOM RT Structure Sets.
+    ``steps`` (default 3000) and ``minutes`` bound the run; ``seed`` (default 0) and
+    ``threads`` (default: all cores) make it reproducible. Every keyword and default is the
+    command line's (``dynaslice train --help``): both map onto one training specification, and
+    the same model file comes out of both. ``progress``:
     True shows a tqdm bar when tqdm is installed, False nothing, a callable gets a dict
     (step, steps, loss, lr, elapsed and the loss terms) at most every 50 ms.
 
     ``options`` are the command's other options with underscores (``frames="0:37:4"``,
     ``widths=[128, 128]``, ``omega0``, ``lr``, ``class_weights``, ``resume=True``, …; see
-    docs/python.md); an unknown one raises TypeError. The checkpoint is kept at
-    ``output + ".ckpt"``: Ctrl-C stops training, saves it and raises KeyboardInterrupt;
-    ``resume=True`` continues from it.
+    docs/python.md); an unknown one raises TypeError, a value out of range ValueError (with the
+    command line's words) before any file is read. The loss log and curve are written beside
+    the model (``output + ".loss.csv"``, ``".loss.png"``). While training, the checkpoint is
+    kept at ``output + ".ckpt"`` (removed when the run finishes): Ctrl-C stops training, saves
+    it and raises KeyboardInterrupt; ``resume=True`` continues from it, ``force=True`` starts
+    afresh over it.
     """
     if isinstance(inputs, (str, os.PathLike)):
         paths = [os.fspath(inputs)]
@@ -383,7 +393,7 @@ def train(
         paths = [os.fspath(p) for p in inputs]
     callback: Optional[Callable[[dict], Any]]
     if progress is True:
-        callback = _progress_bar(steps if steps is not None else 3000)
+        callback = _progress_bar()
     elif progress is False or progress is None:
         callback = None
     else:

@@ -83,7 +83,7 @@ def train(
     *,
     steps: Optional[int] = None,
     minutes: Optional[float] = None,
-    seed: int = 0,
+    seed: Optional[int] = None,
     threads: Optional[int] = None,
     progress: Optional[Callable[[dict], Any]] = None,
     **options: Any,

@@ -17,57 +17,43 @@ pub mod schedule;
 pub mod synthetic;
 pub mod torch_step;
 
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use dynaslice_core::{Model, ModelBytes};
-use dynaslice_data::Sequence;
-use dynaslice_train::data_sampler::{domain_for, DataSampler, SampleCounts};
-use dynaslice_train::model_file::TrainedModel;
-use dynaslice_train::temporal_bound::temporal_bound;
-use dynaslice_train::trainer::{train, TrainOptions};
-use std::ops::ControlFlow;
-use std::time::Instant;
+use dynaslice_data::{Sequence, Space, Units};
+use dynaslice_train::fit::{self, InputRecord, Observer, Quiet};
+use dynaslice_train::spec::TrainSpec;
+use dynaslice_train::trainer::TrainOptions;
 
 /// What every run shares.
 #[derive(Clone, Debug)]
 pub struct Protocol {
     /// Training wall time per run, turned into a step count per input by [`Protocol::steps_for`].
     pub minutes: f64,
-    /// Base training options (steps, time limit and ω_t^max are set per run).
-    pub options: TrainOptions,
-    /// Samples per step.
-    pub counts: SampleCounts,
-    /// c of ω_t^max = c·π/Δt.
-    pub temporal_factor: f32,
+    /// Base training options (steps, time, temporal control and orientation are set per run).
+    pub spec: TrainSpec,
 }
 
 impl Protocol {
-    /// The options of a run on `seq` for `steps` steps, with or without temporal control
-    /// (Eq. 4) and the orientation loss (Eq. 6).
-    pub fn options(
-        &self,
-        seq: &Sequence,
-        steps: u64,
-        temporal_control: bool,
-        orientation: bool,
-    ) -> TrainOptions {
-        let mut o = self.options.clone();
-        o.steps = steps;
-        o.time_limit = None;
-        o.checkpoint = None;
-        if !orientation {
-            o.loss.orientation = 0.0;
+    /// The options of a run for `steps` steps, with or without temporal control (Eq. 4) and
+    /// the orientation loss (Eq. 6).
+    pub fn spec(&self, steps: u64, temporal_control: bool, orientation: bool) -> TrainSpec {
+        TrainSpec {
+            steps: Some(steps),
+            minutes: None,
+            no_temporal_control: !temporal_control,
+            no_orientation: !orientation,
+            ..self.spec.clone()
         }
-        o.omega_t_max = temporal_bound(
-            seq,
-            &domain_for(seq),
-            self.temporal_factor,
-            temporal_control,
-        );
-        o
+    }
+
+    /// The trainer's options the base spec resolves to (for the tables' headers).
+    pub fn options(&self) -> TrainOptions {
+        self.spec.options(f32::INFINITY, None)
     }
 
     /// Steps of the full method on `seq` that take `self.minutes` on this machine now, from a
-    /// short timed run (its first step, which warms caches and allocators, is not counted).
+    /// short run's median step time ([`fit::Trained::median_step_seconds`], the measure the
+    /// trainer's own `--minutes` plan uses).
     pub fn steps_for(&self, seq: &Sequence) -> Result<u64> {
         self.steps_for_minutes(seq, self.minutes)
     }
@@ -76,18 +62,13 @@ impl Protocol {
     /// [`Protocol::steps_for`] does.
     pub fn steps_for_minutes(&self, seq: &Sequence, minutes: f64) -> Result<u64> {
         const PROBE: u64 = 6;
-        let probe = self.options(seq, PROBE, true, true);
-        let mut sampler = DataSampler::new(seq, domain_for(seq), self.counts);
-        let start = Instant::now();
-        let mut first = None;
-        train(&probe, seq.classes().len(), &mut sampler, |p| {
-            if p.step == 1 {
-                first = Some(start.elapsed());
-            }
-            ControlFlow::Continue(())
-        })?;
-        let per_step =
-            (start.elapsed() - first.unwrap_or_default()).as_secs_f64() / (PROBE - 1) as f64;
+        let probe = fit(
+            seq,
+            &self.spec(PROBE, true, true),
+            "calibration",
+            &mut Quiet,
+        )?;
+        let per_step = probe.per_step.unwrap_or(probe.seconds / PROBE as f64);
         Ok(((minutes * 60.0 / per_step) as u64).max(1))
     }
 }
@@ -100,6 +81,8 @@ pub struct Fitted {
     pub steps: u64,
     /// Training wall time.
     pub seconds: f64,
+    /// The median step time after the first.
+    pub per_step: Option<f64>,
 }
 
 impl Fitted {
@@ -109,31 +92,27 @@ impl Fitted {
     }
 }
 
-/// Trains a model of `seq` with `options` and `p`'s sample counts, in `seq`'s own domain. Its
-/// metadata is `dynaslice train`'s, with `input` (`key = value` lines) saying what `seq` is.
-pub fn fit(p: &Protocol, seq: &Sequence, options: &TrainOptions, input: &str) -> Result<Fitted> {
-    let domain = domain_for(seq);
-    let mut sampler = DataSampler::new(seq, domain, p.counts);
-    let outcome = train(options, seq.classes().len(), &mut sampler, |_| {
-        ControlFlow::Continue(())
-    })?;
-    let bytes = TrainedModel {
-        outcome: &outcome,
-        domain,
-        classes: seq.classes(),
-        options,
-        counts: p.counts,
-        temporal_factor: p.temporal_factor,
-        class_weights: None,
-        input,
-    }
-    .to_bytes()
-    .map_err(|e| anyhow!("model: {e}"))?;
-    bytes.model().map_err(|e| anyhow!("model: {e}"))?;
+/// Trains a model of `seq` as `spec` asks, through the one training entry
+/// ([`dynaslice_train::fit::fit`]), in memory; `input` says what `seq` is in the model's
+/// metadata (the lab's inputs are in their files' own coordinates).
+pub fn fit(
+    seq: &Sequence,
+    spec: &TrainSpec,
+    input: &str,
+    observer: &mut dyn Observer,
+) -> Result<Fitted> {
+    let record = InputRecord {
+        description: input.to_string(),
+        frames: "0:".into(),
+        space: Space::Ras,
+        units: Units::Plain,
+    };
+    let trained = fit::fit(seq, spec, &record, None, observer)?;
     Ok(Fitted {
-        bytes,
-        steps: outcome.steps_done,
-        seconds: outcome.elapsed.as_secs_f64(),
+        seconds: trained.elapsed.as_secs_f64(),
+        per_step: trained.median_step_seconds,
+        steps: trained.steps_done,
+        bytes: trained.bytes,
     })
 }
 

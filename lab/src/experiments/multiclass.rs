@@ -17,7 +17,8 @@ use anyhow::{Context, Result};
 use dynaslice_data::Sequence;
 use dynaslice_metrics::heldout::{held_out, held_out_class, HeldOut, Split};
 use dynaslice_metrics::iou::Overlap;
-use dynaslice_train::trainer::TrainOptions;
+use dynaslice_train::fit::Quiet;
+use dynaslice_train::spec::TrainSpec;
 use std::fmt::Write as _;
 
 /// How the classes share a network.
@@ -111,10 +112,10 @@ impl Case {
     /// independent models calibrate their own, 1/K of `p.minutes` each).
     pub fn run(&self, sharing: Sharing, seed: u64, p: &Protocol, steps: u64) -> Result<SharingRun> {
         let train = self.split.training(&self.seq)?;
-        let input = format!("input = {}, training split", self.source);
-        let options = |seq: &Sequence, temporal_control: bool| TrainOptions {
-            seed,
-            ..p.options(seq, steps, temporal_control, true)
+        let input = format!("{}, training split", self.source);
+        let spec = |steps: u64, temporal_control: bool| TrainSpec {
+            seed: Some(seed),
+            ..p.spec(steps, temporal_control, true)
         };
         let k = self.seq.classes().len();
         let one_class = |c: usize| {
@@ -138,11 +139,7 @@ impl Case {
                 for c in 0..k {
                     let one = one_class(c)?;
                     let input = format!("{input}, class {} alone", c + 1);
-                    let options = TrainOptions {
-                        steps,
-                        ..options(&one, true)
-                    };
-                    let fitted = fit(p, &one, &options, &input)?;
+                    let fitted = fit(&one, &spec(steps, true), &input, &mut Quiet)?;
                     seconds += fitted.seconds;
                     let h =
                         held_out_class(&fitted.model(), &self.seq, c, &self.split, self.pixels)?;
@@ -152,7 +149,7 @@ impl Case {
             }
             Sharing::Shared | Sharing::SharedNoTemporal => {
                 let control = sharing == Sharing::Shared;
-                let fitted = fit(p, &train, &options(&train, control), &input)?;
+                let fitted = fit(&train, &spec(steps, control), &input, &mut Quiet)?;
                 let h = held_out(&fitted.model(), &self.seq, &self.split, self.pixels)?;
                 (per_class(&h), fitted.seconds)
             }
@@ -213,7 +210,7 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
             .first()
             .map_or(0, |r| r.steps),
         p.minutes,
-        p.options.threads,
+        p.options().threads,
         seeds.len(),
         seeds,
     );
@@ -280,7 +277,6 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
 mod tests {
     use super::*;
     use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
-    use dynaslice_train::data_sampler::SampleCounts;
 
     fn case() -> Case {
         let bench = BenchmarkOptions {
@@ -333,18 +329,15 @@ mod tests {
         let c = case();
         let p = Protocol {
             minutes: 0.0,
-            options: TrainOptions {
-                widths: vec![16, 16],
-                threads: 1,
-                ..TrainOptions::default()
+            spec: TrainSpec {
+                widths: Some(vec![16, 16]),
+                threads: Some(1),
+                contour_samples: Some(64),
+                plane_samples: Some(64),
+                space_samples: Some(64),
+                temporal_factor: Some(1.0),
+                ..TrainSpec::default()
             },
-            counts: SampleCounts {
-                contour_per_class: 64,
-                plane_per_class: 64,
-                space: 64,
-                ..SampleCounts::default()
-            },
-            temporal_factor: 1.0,
         };
         assert_eq!(c.sharings().len(), 4);
         for sharing in c.sharings() {
@@ -378,9 +371,10 @@ mod tests {
         let c = case();
         let p = Protocol {
             minutes: 1.0,
-            options: TrainOptions::default(),
-            counts: SampleCounts::default(),
-            temporal_factor: 0.2,
+            spec: TrainSpec {
+                temporal_factor: Some(0.2),
+                ..TrainSpec::default()
+            },
         };
         let run = |sharing, seed, iou: [f64; 3], seconds| SharingRun {
             sharing,

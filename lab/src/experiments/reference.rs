@@ -10,6 +10,7 @@ use dynaslice_mesh::io::read_stl;
 use dynaslice_mesh::Mesh;
 use dynaslice_metrics::chamfer;
 use dynaslice_metrics::inside::{grid_for, model_iou, padded_bounds};
+use dynaslice_train::fit::Quiet;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -74,10 +75,10 @@ impl Case {
             "the IoU grid needs at least 1 cell and the Chamfer distance at least 1 sample"
         );
         let fitted = fit(
-            p,
             &self.seq,
-            &p.options(&self.seq, steps, true, true),
-            &format!("input = {}", self.csl.display()),
+            &p.spec(steps, true, true),
+            &self.csl.display().to_string(),
+            &mut Quiet,
         )
         .with_context(|| self.csl.display().to_string())?;
         let model = fitted.model();
@@ -111,7 +112,8 @@ pub fn markdown(runs: &[CaseRun], p: &Protocol, r: Resolution) -> String {
         s,
         "## Static real data: `.csl` cross-sections against reference meshes\n"
     );
-    let _ = writeln!(
+    let _ =
+        writeln!(
         s,
         "OReX's sliced meshes (`../shared/data/csl/`, one timestep, one class), each trained for \
          {} min ({} threads). CD×10⁴ between {} area-uniform samples of the model's class-1 mesh \
@@ -119,7 +121,7 @@ pub fn markdown(runs: &[CaseRun], p: &Protocol, r: Resolution) -> String {
          reference's bounding-box diagonal; 3D IoU of the labels against the reference's \
          interior (ray parity) on a grid of {} cells along the longest axis of the reference's \
          box grown by 5 % of its diagonal.\n",
-        p.minutes, p.options.threads, r.samples, r.mesh, r.iou
+        p.minutes, p.options().threads, r.samples, r.mesh, r.iou
     );
     let _ = writeln!(s, "| input | planes | CD×10⁴ | IoU | steps | train time |");
     let _ = writeln!(s, "|---|---|---|---|---|---|");

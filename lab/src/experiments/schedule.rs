@@ -5,14 +5,14 @@
 //! shapes (3D IoU, Chamfer distance ×10⁴).
 
 use super::synthetic::Scene;
-use super::{cell, Protocol};
-use anyhow::{anyhow, Result};
+use super::{cell, fit, Protocol};
+use anyhow::Result;
 use dynaslice_data::synth::Shape;
 use dynaslice_metrics::benchmark::{Resolution, Scores};
 use dynaslice_metrics::Frames;
-use dynaslice_train::data_sampler::{domain_for, DataSampler};
-use dynaslice_train::model_file::TrainedModel;
-use dynaslice_train::trainer::train;
+use dynaslice_train::fit::Observer;
+use dynaslice_train::spec::TrainSpec;
+use dynaslice_train::trainer::Progress;
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
@@ -38,50 +38,57 @@ pub fn compare(shape: Shape, p: &Protocol, seeds: u64, cap: u64) -> Result<Vec<T
     let mut runs = Vec::new();
     for seed in 0..seeds {
         for planned in [true, false] {
-            let mut o = p.options(seq, cap, true, true);
-            o.seed = seed;
-            if planned {
-                o.steps = u64::MAX / 2;
-                o.time_limit = Some(budget);
-            }
-            let domain = domain_for(seq);
-            let mut sampler = DataSampler::new(seq, domain, p.counts);
-            let start = Instant::now();
-            let mut length = o.steps;
-            let outcome = train(&o, seq.classes().len(), &mut sampler, |progress| {
-                length = progress.steps;
-                // The former behaviour: the `cap`-step cosine, stopped when the budget is spent.
-                if !planned && start.elapsed() >= budget {
-                    ControlFlow::Break(())
-                } else {
-                    ControlFlow::Continue(())
+            let base = TrainSpec {
+                seed: Some(seed),
+                ..p.spec(cap, true, true)
+            };
+            // Planned: the trainer's own `--minutes` plan (re-planned as the run goes). Cut
+            // off: the former behaviour, the `cap`-step cosine stopped when the budget is spent.
+            let spec = if planned {
+                TrainSpec {
+                    steps: None,
+                    minutes: Some(p.minutes),
+                    ..base
                 }
-            })?;
-            let bytes = TrainedModel {
-                outcome: &outcome,
-                domain,
-                classes: seq.classes(),
-                options: &o,
-                counts: p.counts,
-                temporal_factor: p.temporal_factor,
-                class_weights: None,
-                input: "input = dynaslice-lab schedule",
-            }
-            .to_bytes()
-            .map_err(|e| anyhow!("model: {e}"))?;
-            let model = bytes.model().map_err(|e| anyhow!("model: {e}"))?;
+            } else {
+                base
+            };
+            let mut watch = CutOff {
+                start: Instant::now(),
+                budget: (!planned).then_some(budget),
+                length: 0,
+            };
+            let fitted = fit(seq, &spec, "dynaslice-lab schedule", &mut watch)?;
             let run = TimedRun {
                 schedule: if planned { "planned" } else { "cut off" },
                 seed,
-                steps: (outcome.steps_done, length),
-                seconds: outcome.elapsed.as_secs_f64(),
-                scores: scene.score(&model)?,
+                steps: (fitted.steps, watch.length),
+                seconds: fitted.seconds,
+                scores: scene.score(&fitted.model())?,
             };
             eprintln!("{}", row(shape, &run));
             runs.push(run);
         }
     }
     Ok(runs)
+}
+
+/// Stops a run when its budget is spent (none: never) and remembers the schedule's length.
+struct CutOff {
+    start: Instant,
+    budget: Option<Duration>,
+    length: u64,
+}
+
+impl Observer for CutOff {
+    fn step(&mut self, p: &Progress) -> ControlFlow<()> {
+        self.length = p.steps;
+        match self.budget {
+            Some(b) if self.start.elapsed() >= b => ControlFlow::Break(()),
+            _ => ControlFlow::Continue(()),
+        }
+    }
+    fn note(&mut self, _: &str) {}
 }
 
 /// One markdown table row.

@@ -9,6 +9,8 @@ use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
 use dynaslice_data::Sequence;
 use dynaslice_metrics::benchmark::{Resolution, Scores, Truth};
 use dynaslice_metrics::Frames;
+use dynaslice_train::fit::Quiet;
+use dynaslice_train::spec::TrainSpec;
 use std::fmt::Write as _;
 
 /// The ablations of Table 3.
@@ -103,18 +105,15 @@ impl Scene {
 
     /// Trains `variant` for `steps` from `seed` and scores it at every benchmark frame.
     pub fn run(&self, variant: Variant, seed: u64, p: &Protocol, steps: u64) -> Result<Run> {
-        let mut options = p.options(
-            &self.seq,
-            steps,
-            variant.temporal_control(),
-            variant.orientation(),
-        );
-        options.seed = seed;
+        let spec = TrainSpec {
+            seed: Some(seed),
+            ..p.spec(steps, variant.temporal_control(), variant.orientation())
+        };
         let input = format!(
-            "input = dynaslice synth --shape {}, its annotated frames",
+            "dynaslice synth --shape {}, its annotated frames",
             self.shape.name()
         );
-        let fitted = fit(p, &self.seq, &options, &input)?;
+        let fitted = fit(&self.seq, &spec, &input, &mut Quiet)?;
         let scores = self.truth.score(&fitted.model())?;
         Ok(Run {
             shape: self.shape,
@@ -149,6 +148,7 @@ impl Run {
 /// (shape, variant) is the mean over its seeds).
 pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
     let mut s = String::new();
+    let (o, counts) = (p.options(), p.spec.counts());
     let mut seeds: Vec<u64> = runs.iter().map(|r| r.seed).collect();
     seeds.sort_unstable();
     seeds.dedup();
@@ -167,24 +167,24 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
          sampling (ω₀ = {}, initial offset {}; λ_n = {} where the variant has orientation, \
          λ_d = {}, λ_r = {}, α = {}).\n",
         p.minutes,
-        p.options.threads,
-        p.options.widths,
-        p.counts.contour_per_class,
-        p.counts.plane_per_class,
-        p.counts.space,
-        p.temporal_factor,
+        o.threads,
+        o.widths,
+        counts.contour_per_class,
+        counts.plane_per_class,
+        counts.space,
+        p.spec.temporal_factor(),
         resolution.iou,
         resolution.samples,
         resolution.mesh,
         resolution.truth,
         seeds.len(),
         seeds,
-        p.options.omega_0,
-        p.options.offset,
-        p.options.loss.orientation,
-        p.options.loss.plane,
-        p.options.loss.regulariser,
-        p.options.loss.alpha,
+        o.omega_0,
+        o.offset,
+        o.loss.orientation,
+        o.loss.plane,
+        o.loss.regulariser,
+        o.loss.alpha,
     );
     let shapes: Vec<Shape> = Shape::ALL
         .iter()

@@ -1,5 +1,5 @@
-//! Which classes to mesh: the one reading of a user's class keys (`dynaslice mesh --class`,
-//! the Python binding's `classes=`).
+//! Which classes a request means: the one reading of a user's class keys (`dynaslice mesh
+//! --class`, the Python binding's `classes=`).
 
 use dynaslice_core::Model;
 

@@ -1,0 +1,175 @@
+//! Opening a model file (.dsm): the one way every front end reads a model, with what the file
+//! records about its input.
+
+use crate::class_colors::recorded_class_colors;
+use anyhow::{anyhow, bail, Context, Result};
+use dynaslice_core::{Model, ModelBytes};
+use dynaslice_data::{palette, ClassInfo, Space, Units};
+use std::path::{Path, PathBuf};
+
+/// A model file read from disk and validated.
+pub struct ModelFile {
+    /// Valid: [`ModelFile::open`] or [`ModelFile::from_bytes`] checked them.
+    bytes: ModelBytes,
+    path: PathBuf,
+}
+
+impl ModelFile {
+    /// Reads and validates the model file at `path`; every error names the file. Only a
+    /// regular file is opened (a FIFO would block the open), and its size is bounded by the
+    /// largest model the format allows ([`ModelBytes::read`]).
+    pub fn open(path: &Path) -> Result<ModelFile> {
+        let meta = std::fs::metadata(path)
+            .with_context(|| format!("cannot read model {}", path.display()))?;
+        if !meta.is_file() {
+            bail!(
+                "model {}: not a regular file (a directory, FIFO or device)",
+                path.display()
+            );
+        }
+        let bytes = ModelBytes::read(path)
+            .with_context(|| format!("cannot read model {}", path.display()))?;
+        ModelFile::from_bytes(bytes, path)
+    }
+
+    /// Validates model `bytes` that came from `source` (named in errors).
+    pub fn from_bytes(bytes: ModelBytes, source: &Path) -> Result<ModelFile> {
+        bytes
+            .model()
+            .map_err(|e| anyhow!("{}: {e}", source.display()))?;
+        Ok(ModelFile {
+            bytes,
+            path: source.to_path_buf(),
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> Model<'_> {
+        self.bytes.model().expect("validated by open")
+    }
+
+    /// The file's bytes.
+    pub fn bytes(&self) -> &ModelBytes {
+        &self.bytes
+    }
+
+    /// Where the model came from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The model's classes in channel order, each with the display colour its input had where
+    /// the model file records one (`class_colors` in its metadata), else `None`: pass them to
+    /// [`palette::class_color`] with the class's index. A malformed `class_colors` line is
+    /// ignored with a warning; models written before the line existed have no colours.
+    pub fn classes(&self) -> Vec<ClassInfo> {
+        let model = self.model();
+        let recorded = recorded_class_colors(&model).unwrap_or_else(|e| {
+            log::warn!(
+                "{}: {e}; the classes take the palette's colours",
+                self.path.display()
+            );
+            vec![None; model.num_classes()]
+        });
+        model
+            .classes()
+            .zip(recorded)
+            .map(|(c, color)| ClassInfo {
+                name: c.name.to_string(),
+                label: c.label,
+                color,
+            })
+            .collect()
+    }
+
+    /// One display colour per channel: the input's where recorded ([`ModelFile::classes`]),
+    /// else the palette's for that channel; what every output of the model shows the class in.
+    pub fn class_colors(&self) -> Vec<[u8; 3]> {
+        self.classes()
+            .iter()
+            .enumerate()
+            .map(|(k, c)| palette::class_color(k, c.color))
+            .collect()
+    }
+
+    /// The file's size in bytes.
+    pub fn len(&self) -> usize {
+        self.bytes.len()
+    }
+
+    /// Whether the file is empty (never: a valid model has a header).
+    pub fn is_empty(&self) -> bool {
+        self.bytes.len() == 0
+    }
+
+    /// The value of metadata `key` (`key = value` lines), trimmed.
+    fn metadata_value(&self, key: &str) -> Option<String> {
+        self.model().metadata().lines().find_map(|line| {
+            let (k, v) = line.split_once('=')?;
+            (k.trim() == key).then(|| v.trim().to_string())
+        })
+    }
+
+    /// The patient frame of the input's coordinates, which outputs default to. Models written
+    /// before the frame was recorded give LPS, what those outputs were tagged with.
+    pub fn space(&self) -> Space {
+        self.metadata_value(Space::METADATA_KEY)
+            .and_then(|v| Space::from_name(&v))
+            .unwrap_or(Space::Lps)
+    }
+
+    /// The input's length unit, where recorded.
+    pub fn units(&self) -> Option<Units> {
+        self.metadata_value(Units::METADATA_KEY)
+            .and_then(|v| Units::from_name(&v))
+    }
+
+    /// A static model does not depend on time: trained on a single timestep, where the trainer
+    /// sets ω_t^max = 0 and every ω_t is clamped to 0 (dynaslice-train's `temporal_bound`).
+    /// Its time range is then a nominal one unit from the frame's time.
+    pub fn is_static(&self) -> bool {
+        self.model().omega_t_max() == 0.0
+    }
+
+    /// The time of `option`: the given one, checked against the time range, or for a static
+    /// model its start; a moving model needs one.
+    pub fn time(&self, option: &str, t: Option<f32>) -> Result<f32> {
+        match t {
+            Some(t) => {
+                self.check_time(option, t)?;
+                Ok(t)
+            }
+            None if self.is_static() => Ok(self.model().domain().time_range().0),
+            None => {
+                let (t0, t1) = self.model().domain().time_range();
+                bail!(
+                    "{}: the model moves over times {t0} to {t1}; give {option}",
+                    self.path.display()
+                )
+            }
+        }
+    }
+
+    /// An error unless `t` is in the model's time range ([`dynaslice_core::Domain::contains_time`],
+    /// the rule of every front end): outside it the network was never fitted and extrapolates
+    /// freely.
+    pub fn check_time(&self, option: &str, t: f32) -> Result<()> {
+        let model = self.model();
+        let domain = model.domain();
+        if !domain.contains_time(t) {
+            let (t0, t1) = domain.time_range();
+            bail!(
+                "{}: {option} {t} is outside the model's time range [{t0}, {t1}]",
+                self.path.display()
+            );
+        }
+        Ok(())
+    }
+
+    /// [`ModelFile::check_time`] for each of `times`.
+    pub fn check_times(&self, option: &str, times: impl IntoIterator<Item = f64>) -> Result<()> {
+        times
+            .into_iter()
+            .try_for_each(|t| self.check_time(option, t as f32))
+    }
+}

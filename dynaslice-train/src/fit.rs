@@ -1,0 +1,283 @@
+//! The one way to train a model: a [`Sequence`] and a [`TrainSpec`] in, a model file's bytes
+//! and the loss log out. The command line, the Python package, the lab and the benchmarks are
+//! adapters over [`fit`]: they map their flags and keywords onto a [`TrainSpec`], watch the run
+//! through an [`Observer`] and write what it returns ([`Trained::write`]).
+//!
+//! [`fit`] fixes the normalised frame ([`domain_for`]) and the temporal bound (Eq. 4,
+//! [`temporal_bound`]), runs every check that can run before training (the options, the
+//! input's fit to the model format, the per-class weights), builds the sampler, runs the loop
+//! ([`trainer::train`], with its time planning and checkpoints) while journaling the loss rows
+//! ([`crate::journal`]), and builds the model file ([`TrainedModel`]).
+
+use crate::data_sampler::{domain_for, DataSampler};
+use crate::journal::{self, Journal, LossRow};
+use crate::model_file::{check_model_limits, TrainedModel};
+use crate::spec::{SpecError, TrainSpec, MAX_STEPS};
+use crate::temporal_bound::temporal_bound;
+use crate::trainer::{self, Progress};
+use anyhow::{anyhow, bail, Context, Result};
+use dynaslice_core::ModelBytes;
+use dynaslice_data::atomic::write_atomically;
+use dynaslice_data::{Sequence, Space, Units};
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// The files of one training run, all beside the model: `MODEL.loss.csv` (one row per step),
+/// `MODEL.loss.png` (the curve, written by the front end), and while the run goes the
+/// checkpoint `MODEL.ckpt` and its loss rows `MODEL.ckpt.loss.csv`, which a finished run
+/// removes.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RunFiles {
+    /// The model file.
+    pub model: PathBuf,
+    /// The loss log.
+    pub csv: PathBuf,
+    /// The loss curve.
+    pub png: PathBuf,
+    /// The checkpoint.
+    pub checkpoint: PathBuf,
+    /// The loss rows the checkpoint covers, appended as the run goes.
+    pub journal: PathBuf,
+}
+
+impl RunFiles {
+    /// The files of a run writing `model`.
+    pub fn beside(model: &Path) -> RunFiles {
+        let beside = |suffix: &str| {
+            let mut s = model.as_os_str().to_owned();
+            s.push(suffix);
+            PathBuf::from(s)
+        };
+        RunFiles {
+            model: model.to_path_buf(),
+            csv: beside(".loss.csv"),
+            png: beside(".loss.png"),
+            checkpoint: beside(".ckpt"),
+            journal: beside(".ckpt.loss.csv"),
+        }
+    }
+
+    /// The files other than the model, which a run writes beside it.
+    pub fn sidecars(&self) -> [&Path; 4] {
+        [&self.csv, &self.png, &self.checkpoint, &self.journal]
+    }
+
+    /// Whether a run of `spec` may start with the state found on disk: an existing checkpoint
+    /// needs `resume` (continue it) or `force` (discard it). Returns whether the run resumes
+    /// from a checkpoint.
+    pub fn check_state(&self, spec: &TrainSpec) -> Result<bool> {
+        let has_checkpoint = self.checkpoint.exists();
+        if has_checkpoint && !spec.resume && !spec.force {
+            bail!(
+                "{} holds the checkpoint of an earlier run; resume to continue it (--resume, \
+                 resume=True), or force to start afresh and replace it (--force, force=True)",
+                self.checkpoint.display()
+            );
+        }
+        Ok(has_checkpoint && spec.resume)
+    }
+}
+
+/// What the inputs were, as the model's metadata records it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputRecord {
+    /// The inputs, as the user named them (`a.nii.gz + b.nii.gz`).
+    pub description: String,
+    /// The frames kept (`A:B:STEP`).
+    pub frames: String,
+    /// The patient frame of the inputs' coordinates, which outputs default to.
+    pub space: Space,
+    /// The inputs' length unit.
+    pub units: Units,
+}
+
+impl InputRecord {
+    /// The metadata lines.
+    fn lines(&self) -> String {
+        format!(
+            "input = {}\nframes = {}\n{} = {}\n{} = {}",
+            self.description,
+            self.frames,
+            Space::METADATA_KEY,
+            self.space.name(),
+            Units::METADATA_KEY,
+            self.units.name()
+        )
+    }
+}
+
+/// Watches a run: called after every step, and with notes worth telling the user.
+pub trait Observer {
+    /// After each step; `Break` stops the run (it is checkpointed and [`Trained::stopped`]).
+    fn step(&mut self, progress: &Progress) -> ControlFlow<()>;
+    /// A line for the user (e.g. "resumed from … at step 120 of 3000").
+    fn note(&mut self, line: &str);
+}
+
+/// An observer that lets the run go to the end and says nothing.
+pub struct Quiet;
+
+impl Observer for Quiet {
+    fn step(&mut self, _: &Progress) -> ControlFlow<()> {
+        ControlFlow::Continue(())
+    }
+    fn note(&mut self, _: &str) {}
+}
+
+/// A run's result.
+pub struct Trained {
+    /// The model file, validated.
+    pub bytes: ModelBytes,
+    /// The loss rows from step 1.
+    pub rows: Vec<LossRow>,
+    /// Steps completed.
+    pub steps_done: u64,
+    /// The schedule's length (a timed run's plan where it made one).
+    pub schedule_steps: u64,
+    /// This process's training wall time.
+    pub elapsed: Duration,
+    /// The median time of this process's steps after its first (none: fewer than two steps).
+    pub median_step_seconds: Option<f64>,
+    /// The observer stopped the run before its schedule ended: the checkpoint holds it and
+    /// [`Trained::write`] refuses.
+    pub stopped: bool,
+}
+
+impl Trained {
+    /// Writes the model and its loss log (each atomically) and, the run being finished,
+    /// removes its checkpoint and journal. The loss curve (`files.png`) is the front end's.
+    pub fn write(&self, files: &RunFiles) -> Result<()> {
+        if self.stopped {
+            bail!(
+                "stopped at step {} of {}: checkpoint {} kept, no model written",
+                self.steps_done,
+                self.schedule_steps,
+                files.checkpoint.display()
+            );
+        }
+        write_atomically(&files.model, &self.bytes)?;
+        write_atomically(&files.csv, journal::csv(&self.rows).as_bytes())?;
+        for state in [&files.checkpoint, &files.journal] {
+            match std::fs::remove_file(state) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => {
+                    return Err(e).with_context(|| format!("cannot remove {}", state.display()))
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Trains a model of `seq` as `spec` asks. With `files`, the run checkpoints beside
+/// `files.model` and journals its loss rows, and resumes from an earlier checkpoint where
+/// `spec.resume` says so (see [`RunFiles::check_state`]); without, it keeps everything in
+/// memory (the lab, benchmarks). Option errors come before any work, as [`SpecError`]s.
+pub fn fit(
+    seq: &Sequence,
+    spec: &TrainSpec,
+    input: &InputRecord,
+    files: Option<&RunFiles>,
+    observer: &mut dyn Observer,
+) -> Result<Trained> {
+    spec.validate()?;
+    let classes = seq.classes();
+    spec.check_classes(classes.len())?;
+    let domain = domain_for(seq);
+    check_model_limits(classes, &domain).map_err(|e| anyhow!("{}: {e}", input.description))?;
+    let omega_t_max = temporal_bound(
+        seq,
+        &domain,
+        spec.temporal_factor(),
+        !spec.no_temporal_control,
+    );
+    let resuming = match files {
+        Some(f) => f.check_state(spec)?,
+        None => false,
+    };
+    let options = spec.options(omega_t_max, files.map(|f| f.checkpoint.clone()));
+    let counts = spec.counts();
+    let mut sampler = DataSampler::new(seq, domain, counts);
+    if let Some(w) = &spec.class_weights {
+        sampler = sampler.with_class_weights(w).map_err(|message| SpecError {
+            option: "class_weights",
+            message,
+        })?;
+    }
+    let earlier = match files {
+        Some(f) if resuming => journal::read(&f.journal, MAX_STEPS)?,
+        _ => Vec::new(),
+    };
+    let mut journal = Journal::new(files.map(|f| f.journal.clone()), earlier);
+    let mut failure = None;
+    let mut stopped = false;
+    let checkpoint = files.map(|f| f.checkpoint.display().to_string());
+    let outcome = trainer::train(&options, classes.len(), &mut sampler, |p| {
+        match journal.record(LossRow::of(p.step, &p.terms, p.loss)) {
+            Ok(Some(missing)) => {
+                let start = p.step - 1;
+                observer.note(&format!(
+                    "resumed from {} at step {start} of {}",
+                    checkpoint.as_deref().unwrap_or("the checkpoint"),
+                    p.steps
+                ));
+                if missing > 0 {
+                    observer.note(&format!(
+                        "the loss log lacks the rows of {missing} of the checkpoint's {start} steps"
+                    ));
+                }
+            }
+            Ok(None) => {}
+            Err(e) => {
+                failure = Some(e);
+                return ControlFlow::Break(());
+            }
+        }
+        let flow = observer.step(p);
+        stopped |= flow.is_break();
+        flow
+    })
+    .context("training failed")?;
+    if let Some(e) = failure {
+        return Err(e.context("the loss log failed; the checkpoint is saved"));
+    }
+    if outcome.history.is_empty() && outcome.steps_done > 0 {
+        observer.note(&format!(
+            "{} already holds all {} steps",
+            checkpoint.as_deref().unwrap_or("the checkpoint"),
+            outcome.steps_done
+        ));
+    }
+    if outcome.steps_done == 0 {
+        bail!(
+            "no training step finished within {} minutes; no model written",
+            spec.minutes.unwrap_or_default()
+        );
+    }
+    let bytes = TrainedModel {
+        outcome: &outcome,
+        domain,
+        classes,
+        options: &options,
+        counts,
+        temporal_factor: spec.temporal_factor(),
+        class_weights: spec.class_weights.as_deref(),
+        input: &input.lines(),
+    }
+    .to_bytes()
+    .map_err(|e| anyhow!("cannot write the model: {e}"))?;
+    bytes
+        .model()
+        .map_err(|e| anyhow!("the trained model does not validate: {e}"))?;
+    Ok(Trained {
+        bytes,
+        rows: journal.into_rows(outcome.steps_done),
+        steps_done: outcome.steps_done,
+        schedule_steps: outcome.planned_steps.unwrap_or(options.steps),
+        elapsed: outcome.elapsed,
+        median_step_seconds: outcome.median_step_seconds,
+        stopped,
+    })
+}

@@ -1,0 +1,193 @@
+//! The loss log: one row per step, kept beside the checkpoint while a run goes (the journal,
+//! `MODEL.dsm.ckpt.loss.csv`, appended and flushed every step) so that a resumed run's log
+//! starts at step 1, and written beside the model when the run ends (`MODEL.dsm.loss.csv`).
+
+use crate::loss::LossTerms;
+use anyhow::{Context, Result};
+use dynaslice_data::atomic::write_atomically;
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+
+/// The loss log's header; a row is the step then these values.
+pub const CSV_HEADER: &str = "step,total,surface,orientation,plane,eikonal,spurious";
+
+/// The names of a row's values after the step, in column order, for plots.
+pub const TERM_NAMES: [&str; 6] = [
+    "total",
+    "surface |f|",
+    "orientation",
+    "plane SDF",
+    "eikonal",
+    "spurious exp(-a|f|)",
+];
+
+/// One step's losses: the step (1-based), then total, surface, orientation, plane, eikonal,
+/// spurious.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LossRow(pub u64, pub [f64; 6]);
+
+impl LossRow {
+    /// The row of step `step` with `terms` and weighted `total`.
+    pub fn of(step: u64, t: &LossTerms, total: f64) -> LossRow {
+        LossRow(
+            step,
+            [
+                total,
+                t.surface,
+                t.orientation,
+                t.plane,
+                t.eikonal,
+                t.spurious,
+            ],
+        )
+    }
+
+    /// The CSV line (f64 `Display` is the shortest exact form, so [`LossRow::parse`] restores
+    /// it).
+    pub fn line(&self) -> String {
+        let v = self.1;
+        format!(
+            "{},{},{},{},{},{},{}\n",
+            self.0, v[0], v[1], v[2], v[3], v[4], v[5]
+        )
+    }
+
+    /// The row of a CSV line, or `None` if it is not one (a torn last line).
+    pub fn parse(line: &str) -> Option<LossRow> {
+        let mut it = line.trim().split(',');
+        let step = it.next()?.parse().ok()?;
+        let mut v = [0.0; 6];
+        for x in &mut v {
+            *x = it.next()?.parse().ok()?;
+        }
+        it.next().is_none().then_some(LossRow(step, v))
+    }
+}
+
+/// The rows as a CSV file's text, header first.
+pub fn csv(rows: &[LossRow]) -> String {
+    let mut text = format!("{CSV_HEADER}\n");
+    rows.iter().for_each(|r| text += &r.line());
+    text
+}
+
+/// The rows of the journal at `path`, in step order (none if it is missing). A torn last line
+/// (a kill mid-write) ends it; the file's size is bounded by `max_steps` rows first.
+pub fn read(path: &Path, max_steps: u64) -> Result<Vec<LossRow>> {
+    let Ok(file) = File::open(path) else {
+        return Ok(Vec::new());
+    };
+    // The longest line is 20 digits and six f64s of at most 24 characters, plus commas.
+    let max = max_steps.saturating_add(1).saturating_mul(180);
+    let mut rows = Vec::new();
+    let reader = BufReader::new(file.take(max));
+    for line in reader.lines().skip(1) {
+        let line = line.with_context(|| format!("cannot read {}", path.display()))?;
+        match LossRow::parse(&line) {
+            Some(r) if rows.last().is_none_or(|l: &LossRow| l.0 < r.0) => rows.push(r),
+            _ => break,
+        }
+    }
+    Ok(rows)
+}
+
+/// The journal as a run goes: rewritten at the run's first step with the rows its checkpoint
+/// covers, then one row appended (and flushed) per step.
+pub struct Journal {
+    path: Option<PathBuf>,
+    file: Option<File>,
+    earlier: Vec<LossRow>,
+    rows: Vec<LossRow>,
+}
+
+impl Journal {
+    /// A journal at `path` (none: rows kept in memory only) continuing `earlier` rows.
+    pub fn new(path: Option<PathBuf>, earlier: Vec<LossRow>) -> Journal {
+        Journal {
+            path,
+            file: None,
+            earlier,
+            rows: Vec::new(),
+        }
+    }
+
+    /// Records `row`. The first row of a process at step s keeps the earlier rows of steps
+    /// before s (what the checkpoint it resumed from covers) and returns how many of those
+    /// s − 1 steps have no row, so the caller can say so.
+    pub fn record(&mut self, row: LossRow) -> Result<Option<u64>> {
+        let mut missing = None;
+        if self.rows.is_empty() && self.file.is_none() {
+            let start = row.0 - 1;
+            self.rows = self.earlier.drain(..).filter(|r| r.0 <= start).collect();
+            if start > 0 {
+                missing = Some(start - self.rows.len() as u64);
+            }
+            if let Some(path) = &self.path {
+                write_atomically(path, csv(&self.rows).as_bytes())?;
+                let file = std::fs::OpenOptions::new()
+                    .append(true)
+                    .open(path)
+                    .with_context(|| format!("cannot append to {}", path.display()))?;
+                self.file = Some(file);
+            }
+        }
+        if let (Some(file), Some(path)) = (&mut self.file, &self.path) {
+            file.write_all(row.line().as_bytes())
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        self.rows.push(row);
+        Ok(missing)
+    }
+
+    /// The rows from step 1 to `steps_done`: those recorded, or where this process ran no step
+    /// (its checkpoint already held every step), the earlier ones.
+    pub fn into_rows(self, steps_done: u64) -> Vec<LossRow> {
+        if self.rows.is_empty() {
+            self.earlier
+                .into_iter()
+                .filter(|r| r.0 <= steps_done)
+                .collect()
+        } else {
+            self.rows
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_round_trip_and_torn_lines_end_the_journal() {
+        let r = LossRow(3, [0.1, 1e-30, 0.0, 2.5, 1.0 / 3.0, 7.0]);
+        assert_eq!(LossRow::parse(&r.line()), Some(r));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("j.csv");
+        let text = format!(
+            "{CSV_HEADER}\n{}{}4,0.5,1",
+            LossRow(1, r.1).line(),
+            LossRow(2, r.1).line()
+        );
+        std::fs::write(&path, text).unwrap();
+        let rows = read(&path, 100).unwrap();
+        assert_eq!(rows.iter().map(|r| r.0).collect::<Vec<_>>(), [1, 2]);
+        assert!(read(&dir.path().join("none"), 100).unwrap().is_empty());
+    }
+
+    #[test]
+    fn a_resumed_journal_keeps_the_rows_its_checkpoint_covers() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("j.csv");
+        let v = [1.0; 6];
+        let earlier = (1..=5).map(|s| LossRow(s, v)).collect();
+        let mut j = Journal::new(Some(path.clone()), earlier);
+        // Resumed from a checkpoint at step 3: rows 4 and 5 of the earlier run are dropped.
+        assert_eq!(j.record(LossRow(4, [2.0; 6])).unwrap(), Some(0));
+        assert_eq!(j.record(LossRow(5, [2.0; 6])).unwrap(), None);
+        let on_disk = read(&path, 100).unwrap();
+        assert_eq!(on_disk.len(), 5);
+        assert_eq!(on_disk[3].1, [2.0; 6]);
+        assert_eq!(j.into_rows(5), on_disk);
+    }
+}
