@@ -219,13 +219,13 @@ impl Motion {
                     for a in 0..3 {
                         match p {
                             Some(p) => {
-                                let _ = write!(s, ",{}", round(frame.from_world(p)[a]));
+                                let _ = write!(s, ",{}", round(p[a]));
                             }
                             None => s.push(','),
                         }
                     }
                 };
-                point(shape.centroid);
+                point(shape.centroid.map(|c| frame.from_world(c)));
                 // LPS flips x and y: the box's corners are recombined so lo ≤ hi per axis.
                 let corners = shape.bounds.map(|(lo, hi)| {
                     let (a, b) = (frame.from_world(lo), frame.from_world(hi));
