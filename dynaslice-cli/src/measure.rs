@@ -96,7 +96,10 @@ pub fn units_and_frame(model: &Model) -> (Units, Frame) {
         return (Units::Plain, Frame::Plain);
     };
     let lower = |p: &Path| p.to_string_lossy().to_ascii_lowercase();
-    if [".seq", ".cslseq"].iter().any(|e| lower(&path).ends_with(e)) {
+    if [".seq", ".cslseq"]
+        .iter()
+        .any(|e| lower(&path).ends_with(e))
+    {
         match manifest::read(&path) {
             Ok(entries) if !entries.is_empty() => path = entries[0].path.clone(),
             _ => {
@@ -205,20 +208,28 @@ impl Measurement {
                 let anatomical = amplitude
                     .filter(|_| self.frame.is_anatomical())
                     .map(|[lr, ap, si]| json!({"lr": lr, "ap": ap, "si": si}));
+                let boxes: Vec<Option<Value>> = m
+                    .shapes
+                    .iter()
+                    .map(|s| {
+                        s[k].bounds.map(|(lo, hi)| {
+                            let (a, b) = (self.frame.from_world(lo), self.frame.from_world(hi));
+                            let min: [f64; 3] = std::array::from_fn(|i| round(a[i].min(b[i])));
+                            let max: [f64; 3] = std::array::from_fn(|i| round(a[i].max(b[i])));
+                            json!({"min": min, "max": max})
+                        })
+                    })
+                    .collect();
+                let centroids: Vec<Option<[f64; 3]>> =
+                    m.shapes.iter().map(|s| point(s[k].centroid)).collect();
                 json!({
                     "name": c.name,
                     "label": c.label,
                     "color": palette::to_hex(self.colors[k]),
                     "volume": volumes,
                     "volume_ml": if mm { json!(volumes) } else { Value::Null },
-                    "centroid": m.shapes.iter().map(|s| point(s[k].centroid)).collect::<Vec<_>>(),
-                    "bounding_box": m.shapes.iter().map(|s| s[k].bounds.map(|(lo, hi)| {
-                        let (a, b) = (self.frame.from_world(lo), self.frame.from_world(hi));
-                        json!({
-                            "min": [0, 1, 2].map(|i| round(a[i].min(b[i]))),
-                            "max": [0, 1, 2].map(|i| round(a[i].max(b[i]))),
-                        })
-                    })).collect::<Vec<_>>(),
+                    "centroid": centroids,
+                    "bounding_box": boxes,
                     "min_volume": {"volume": self.volume(cycle.min.volume), "time": cycle.min.time},
                     "max_volume": {"volume": self.volume(cycle.max.volume), "time": cycle.max.time},
                     "stroke_volume": self.volume(cycle.stroke_volume),
@@ -269,7 +280,8 @@ pub fn run(a: Args) -> Result<()> {
                     )
                 })
                 .collect();
-            for (volume, mesh) in &files {
+            // A folder still to be made holds no file to replace and no input.
+            for (volume, mesh) in files.iter().filter(|_| dir.is_dir()) {
                 plan.file("--itv", volume, Kind::LabelVolume)?;
                 let (ctbl, label) = table_paths(volume);
                 for p in [mesh, &ctbl, &label] {
@@ -389,15 +401,22 @@ fn write_itv(
             label_range: (0.min(c.label), 0.max(c.label)),
             description: "dynaslice ITV (union over the measured times)".into(),
         };
-        let labels: Vec<i32> = masks[k].iter().map(|&i| if i { c.label } else { 0 }).collect();
+        let labels: Vec<i32> = masks[k]
+            .iter()
+            .map(|&i| if i { c.label } else { 0 })
+            .collect();
         let mut stream = NiftiStream::create(volume_path, &header)?;
         stream.write_frame(&labels)?;
         stream.finish()?;
         let (ctbl, label) = table_paths(volume_path);
-        write_tables(&ctbl, &label, std::slice::from_ref(&ClassInfo {
-            color: Some(m.colors[k]),
-            ..c.clone()
-        }))?;
+        write_tables(
+            &ctbl,
+            &label,
+            std::slice::from_ref(&ClassInfo {
+                color: Some(m.colors[k]),
+                ..c.clone()
+            }),
+        )?;
         let info = MeshInfo::new(&c.name, Space::Lps)
             .with_label(c.label)
             .with_color(m.colors[k]);

@@ -17,6 +17,9 @@ use dynaslice_metrics::motion::{round, Units};
 use dynaslice_report::{Block, Cell, Document, Section, Table};
 use std::path::{Path, PathBuf};
 
+/// Draws a figure (a PNG, by the closure given the path to write) and returns its bytes.
+type Figure<'a> = dyn Fn(&str, &dyn Fn(&Path) -> Result<()>) -> Result<Vec<u8>> + 'a;
+
 /// Panels of the 3D picture: enough to see the motion, few enough to stay readable.
 const PICTURE_TIMES: usize = 4;
 
@@ -98,8 +101,10 @@ fn beside(path: &Path, suffix: &str) -> PathBuf {
 }
 
 fn file_name(path: &Path) -> String {
-    path.file_name()
-        .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into())
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into(),
+    )
 }
 
 /// The model's `key = value` metadata lines, in order.
@@ -152,11 +157,7 @@ fn input_section(model: &Model, m: &Measurement) -> Section {
     }
 }
 
-fn training_section(
-    model: &Model,
-    loss_csv: &Path,
-    figure: &dyn Fn(&str, &dyn Fn(&Path) -> Result<()>) -> Result<Vec<u8>>,
-) -> Result<Section> {
+fn training_section(model: &Model, loss_csv: &Path, figure: &Figure) -> Result<Section> {
     let facts: Vec<(String, String)> = metadata(model)
         .into_iter()
         .filter(|(k, _)| !["input", "frames", "class_colors"].contains(&k.as_str()))
@@ -268,10 +269,7 @@ fn classes_section(m: &Measurement) -> Section {
     }
 }
 
-fn figures_section(
-    m: &Measurement,
-    figure: &dyn Fn(&str, &dyn Fn(&Path) -> Result<()>) -> Result<Vec<u8>>,
-) -> Result<Section> {
+fn figures_section(m: &Measurement, figure: &Figure) -> Result<Section> {
     let motion = &m.motion;
     let names = &motion.classes;
     let colors: Vec<Option<[u8; 3]>> = m.colors.iter().map(|&c| Some(c)).collect();
@@ -408,7 +406,9 @@ fn figures_section(
         .split(',')
         .map(String::from)
         .collect();
-    let rows = lines.map(|l| split_csv(l).into_iter().map(Cell::Text).collect()).collect();
+    let rows = lines
+        .map(|l| split_csv(l).into_iter().map(Cell::Text).collect())
+        .collect();
     blocks.push(Block::Paragraph(format!(
         "Per time and class (the table `dynaslice measure -o table.csv` writes): volume in {v}, \
          centroid and bounding box in {l}, {} frame.",
@@ -443,14 +443,20 @@ fn surfaces_section(
     file: &ModelFile,
     m: &Measurement,
     resolution: u32,
-    figure: &dyn Fn(&str, &dyn Fn(&Path) -> Result<()>) -> Result<Vec<u8>>,
+    figure: &Figure,
 ) -> Result<Section> {
     let model = file.model();
     let all = &m.motion.times;
     // Times spread over the measured ones (all of them when there are few).
     let n = PICTURE_TIMES.min(all.len());
     let times: Vec<f32> = (0..n)
-        .map(|i| all[if n == 1 { 0 } else { i * (all.len() - 1) / (n - 1) }] as f32)
+        .map(|i| {
+            all[if n == 1 {
+                0
+            } else {
+                i * (all.len() - 1) / (n - 1)
+            }] as f32
+        })
         .collect();
     let channels: Vec<usize> = (0..model.num_classes()).collect();
     let options = dynaslice_mesh::Options {

@@ -323,7 +323,10 @@ mod tests {
         m.positions.iter_mut().for_each(|p| p[0] += 1000.0);
         assert!((m.enclosed_volume() - 1.0).abs() < 1e-9);
         let c = m.enclosed_centroid().unwrap();
-        assert!((c[0] - 1000.5).abs() < 1e-9 && (c[1] - 0.5).abs() < 1e-9, "{c:?}");
+        assert!(
+            (c[0] - 1000.5).abs() < 1e-9 && (c[1] - 0.5).abs() < 1e-9,
+            "{c:?}"
+        );
         assert_eq!(Mesh::default().enclosed_centroid(), None);
         assert_eq!(Mesh::default().bounds(), None);
     }

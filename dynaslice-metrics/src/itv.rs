@@ -192,10 +192,14 @@ mod tests {
         let m = &itv_meshes(&Moving, ([-1.0; 3], [1.0; 3]), &times, &options).unwrap()[0];
         assert!(m.topology().is_closed_manifold());
         let r: f64 = 0.2;
-        let want = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) + std::f64::consts::PI * r * r * 0.8;
+        let want =
+            4.0 / 3.0 * std::f64::consts::PI * r.powi(3) + std::f64::consts::PI * r * r * 0.8;
         let v = m.enclosed_volume();
         assert!((v - want).abs() < 0.01 * want, "{v} vs {want}");
         let (lo, hi) = m.bounds().unwrap();
-        assert!((lo[0] + 0.6).abs() < 0.01 && (hi[0] - 0.6).abs() < 0.01, "{lo:?} {hi:?}");
+        assert!(
+            (lo[0] + 0.6).abs() < 0.01 && (hi[0] - 0.6).abs() < 0.01,
+            "{lo:?} {hi:?}"
+        );
     }
 }

@@ -15,9 +15,9 @@ pub mod benchmark;
 pub mod chamfer;
 pub mod heldout;
 pub mod inside;
-pub mod motion;
 pub mod iou;
 pub mod itv;
+pub mod motion;
 pub mod volume;
 
 /// Which frames an average is over.

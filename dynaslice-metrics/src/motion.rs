@@ -175,9 +175,9 @@ impl Motion {
             .collect();
         let amplitude = (!centroids.is_empty()).then(|| {
             std::array::from_fn(|a| {
-                let (lo, hi) = centroids
-                    .iter()
-                    .fold((f64::MAX, f64::MIN), |(lo, hi), c| (lo.min(c[a]), hi.max(c[a])));
+                let (lo, hi) = centroids.iter().fold((f64::MAX, f64::MIN), |(lo, hi), c| {
+                    (lo.min(c[a]), hi.max(c[a]))
+                });
                 hi - lo
             })
         });
@@ -296,9 +296,10 @@ mod tests {
                 let s: Vec<Sphere> = (0..3)
                     .map(|k| Sphere::new(centres[k], radii[k], 0.0))
                     .collect();
-                truth_centres.push(centres.map(|c| {
-                    std::array::from_fn(|a| f64::from(HEART.center[a]) + MM * c[a])
-                }));
+                truth_centres.push(
+                    centres
+                        .map(|c| std::array::from_fn(|a| f64::from(HEART.center[a]) + MM * c[a])),
+                );
                 let bytes = spheres::model_in(HEART, &s, &classes);
                 let model = Model::from_bytes(&bytes).unwrap();
                 volume::class_shapes(&model, 0.0, 128)
@@ -316,7 +317,10 @@ mod tests {
             for (f, &t) in times.iter().enumerate() {
                 let want = ml(chambers(t).1[k]);
                 let got = Units::Millimetres.from_world_volume(motion.shapes[f][k].volume);
-                assert!((got - want).abs() < 0.01 * want, "{k} {t}: {got} vs {want} mL");
+                assert!(
+                    (got - want).abs() < 0.01 * want,
+                    "{k} {t}: {got} vs {want} mL"
+                );
                 let c = motion.shapes[f][k].centroid.unwrap();
                 let d = (0..3)
                     .map(|a| (c[a] - truth_centres[f][k][a]).powi(2))
@@ -330,13 +334,23 @@ mod tests {
             let got_edv = Units::Millimetres.from_world_volume(cycle.max.volume);
             let got_esv = Units::Millimetres.from_world_volume(cycle.min.volume);
             let got_ef = cycle.ejection_fraction.unwrap();
-            assert!((got_edv - edv).abs() < 0.02 * edv, "{k}: EDV {got_edv} vs {edv}");
-            assert!((got_esv - esv).abs() < 0.02 * esv, "{k}: ESV {got_esv} vs {esv}");
+            assert!(
+                (got_edv - edv).abs() < 0.02 * edv,
+                "{k}: EDV {got_edv} vs {edv}"
+            );
+            assert!(
+                (got_esv - esv).abs() < 0.02 * esv,
+                "{k}: ESV {got_esv} vs {esv}"
+            );
             assert!((got_ef - ef).abs() < 0.02 * ef, "{k}: EF {got_ef} vs {ef}");
             // Peaks of sin(2πt + 2πk/3): end-diastole at t = 1/4 − k/3 (mod 1), end-systole half
             // a cycle later; 37 phases hit both exactly.
             let peak = (0.25 - k as f64 / 3.0).rem_euclid(1.0);
-            assert!((cycle.max.time - peak).abs() < 1e-9, "{k}: {}", cycle.max.time);
+            assert!(
+                (cycle.max.time - peak).abs() < 1e-9,
+                "{k}: {}",
+                cycle.max.time
+            );
             assert!(
                 (cycle.min.time - (peak + 0.5).rem_euclid(1.0)).abs() < 1e-9,
                 "{k}: {}",
@@ -380,7 +394,9 @@ mod tests {
             let (lo, hi) = shape.bounds.unwrap();
             let r = s.world_radius(t);
             for a in 0..3 {
-                assert!((lo[a] - (truth[a] - r)).abs() < 0.1 && (hi[a] - (truth[a] + r)).abs() < 0.1);
+                assert!(
+                    (lo[a] - (truth[a] - r)).abs() < 0.1 && (hi[a] - (truth[a] + r)).abs() < 0.1
+                );
             }
         }
         let cycle = motion.cycle(0);
@@ -408,7 +424,10 @@ mod tests {
         let truth = s.world_centre();
         assert!((row[3] + truth[0]).abs() < 0.05 && (row[5] - truth[2]).abs() < 0.05);
         assert!(row[6] < row[9] && row[7] < row[10], "{row:?}");
-        assert!((row[6] + truth[0] + s.world_radius(0.0)).abs() < 0.1, "{row:?}");
+        assert!(
+            (row[6] + truth[0] + s.world_radius(0.0)).abs() < 0.1,
+            "{row:?}"
+        );
         assert_eq!(csv.lines().count(), 1 + times.len());
     }
 
