@@ -2,6 +2,7 @@
 //! `--times`): the model's Eq. 11 label volume, written frame by frame (docs/metrics.md), with
 //! its colour tables, or as 3D Slicer segmentations and their sequence.
 
+use super::measure::units_and_frame;
 use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
 use super::options::{
@@ -12,6 +13,7 @@ use anyhow::{bail, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::nifti::read_geometry;
 use dynaslice_data::{palette, TimeSeries};
+use dynaslice_metrics::motion::Units;
 use dynaslice_volume::{output_files, Evaluation, VoxelGrid, WriteOptions, DEFAULT_SAFETY};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -196,13 +198,14 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("  and {companion}");
     }
     // The class volumes of the first and last frame, a quick plausibility check, and the
-    // colour each class has in every output.
+    // colour each class has in every output; in mL where the input's units are millimetres.
     let voxel = grid.voxel_volume();
     let colors = file.class_colors();
+    let (units, _) = units_and_frame(&model);
     for ((k, class), color) in model.classes().enumerate().zip(colors) {
-        let v = |f: usize| counts[f][k + 1] as f64 * voxel;
+        let v = |f: usize| units.from_world_volume(counts[f][k + 1] as f64 * voxel);
         eprintln!(
-            "  label {} {:?} {}: {:.6} at t = {}, {:.6} at t = {} (world units³)",
+            "  label {} {:?} {}: {:.6} at t = {}, {:.6} at t = {} ({})",
             class.label,
             class.name,
             palette::to_hex(color),
@@ -211,7 +214,11 @@ pub fn run(a: Args) -> Result<()> {
             // 1.0000000074505806).
             grid.times[0] as f32,
             v(frames - 1),
-            grid.times[frames - 1] as f32
+            grid.times[frames - 1] as f32,
+            match units {
+                Units::Millimetres => "mL",
+                Units::Plain => "the input's plain units³",
+            }
         );
     }
     Ok(())

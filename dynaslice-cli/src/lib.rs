@@ -12,6 +12,7 @@ mod input;
 mod labels;
 pub mod loss;
 mod man;
+mod measure;
 mod memory;
 mod mesh;
 mod model;
@@ -19,6 +20,7 @@ mod options;
 mod output;
 mod picture;
 mod query;
+mod report;
 pub mod samples;
 mod synth;
 mod train;
@@ -55,6 +57,12 @@ enum Command {
     Labels(labels::Args),
     /// Extract the classes' surfaces at a time or a series of times as closed meshes.
     Mesh(mesh::Args),
+    /// Motion and function per class over the cycle: volumes (mL), centroids, bounding boxes,
+    /// stroke volume, ejection fraction, peak-to-peak amplitude (LR/AP/SI), and the ITV.
+    Measure(measure::Args),
+    /// Write one self-contained HTML report of a model: input, training, classes, motion and
+    /// function figures and tables, and its surfaces in 3D.
+    Report(report::Args),
     /// Draw a model's labels and the input contours on an input plane at several times, or with
     /// --3d its class surfaces, shaded, at several times (PNG).
     Picture(picture::Args),
@@ -89,6 +97,8 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Info(args) => info::run(args),
         Command::Labels(args) => labels::run(args),
         Command::Mesh(args) => mesh::run(args),
+        Command::Measure(args) => measure::run(args),
+        Command::Report(args) => report::run(args),
         Command::Picture(args) => picture::run(args),
         Command::Query(args) => query::run(args),
         Command::Train(args) => train::run(args),

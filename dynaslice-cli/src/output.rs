@@ -26,6 +26,8 @@ pub enum Kind {
     Png,
     /// A mesh (`.ply`, `.obj`, `.stl`, `.vtp`).
     Mesh,
+    /// A web page (`.html`).
+    Html,
 }
 
 impl Kind {
@@ -37,6 +39,7 @@ impl Kind {
             Kind::Csv => &[".csv"],
             Kind::Png => &[".png"],
             Kind::Mesh => &[".ply", ".obj", ".stl", ".vtp"],
+            Kind::Html => &[".html", ".htm"],
         }
     }
 
@@ -48,6 +51,7 @@ impl Kind {
             Kind::Csv => "CSV table",
             Kind::Png => "PNG picture",
             Kind::Mesh => "mesh",
+            Kind::Html => "web page",
         }
     }
 

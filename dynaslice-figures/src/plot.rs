@@ -279,6 +279,22 @@ pub fn volume_chart(
     times: &[f64],
     volumes: &[Vec<f64>],
 ) -> Result<()> {
+    let axes = ("time", "volume (world units³)");
+    class_chart(path, title, axes, classes, colors, times, volumes)
+}
+
+/// A PNG chart of one value per class over time, `values[time][class]` at `times` (a class's
+/// line skips the times where its value is not finite), with the axis titles `(x, y)` (units
+/// included), each class in its colour as in [`volume_chart`].
+pub fn class_chart(
+    path: &Path,
+    title: &str,
+    (x_label, y_label): (&str, &str),
+    classes: &[String],
+    colors: &[Option<[u8; 3]>],
+    times: &[f64],
+    values: &[Vec<f64>],
+) -> Result<()> {
     let series: Vec<Series> = classes
         .iter()
         .enumerate()
@@ -286,7 +302,7 @@ pub fn volume_chart(
             name,
             points: times
                 .iter()
-                .zip(volumes)
+                .zip(values)
                 .filter_map(|(&t, v)| v.get(c).map(|&y| (t, y)))
                 .collect(),
         })
@@ -294,15 +310,7 @@ pub fn volume_chart(
     let colors: Vec<RGBColor> = (0..classes.len())
         .map(|c| class_color(c, colors.get(c).copied().flatten()))
         .collect();
-    chart(
-        path,
-        title,
-        "time",
-        "volume (world units³)",
-        &series,
-        &colors,
-        false,
-    )
+    chart(path, title, x_label, y_label, &series, &colors, false)
 }
 
 #[cfg(test)]

@@ -134,6 +134,34 @@ impl Mesh {
             .sum()
     }
 
+    /// Centroid of the enclosed solid: Σ V_t (o + a + b + c)/4 / Σ V_t over the signed tetrahedra
+    /// of [`Mesh::enclosed_volume`] (f64 sums, exact for a closed polyhedron); `None` for a mesh
+    /// enclosing no volume.
+    pub fn enclosed_centroid(&self) -> Option<[f64; 3]> {
+        let o = self.positions.first().map(|p| p.map(|v| v as f64))?;
+        let (mut volume, mut moment) = (0.0, [0.0; 3]);
+        for t in &self.triangles {
+            let [a, b, c] = self.corners(t).map(|p| sub(p, o));
+            let v = dot(a, cross(b, c)) / 6.0;
+            volume += v;
+            for k in 0..3 {
+                moment[k] += v * (a[k] + b[k] + c[k]) / 4.0;
+            }
+        }
+        (volume != 0.0).then(|| std::array::from_fn(|k| o[k] + moment[k] / volume))
+    }
+
+    /// The axis-aligned box `(lo, hi)` of the vertices; `None` for a mesh without vertices.
+    pub fn bounds(&self) -> Option<([f64; 3], [f64; 3])> {
+        let first = self.positions.first()?.map(|v| v as f64);
+        Some(self.positions.iter().fold((first, first), |(lo, hi), p| {
+            (
+                std::array::from_fn(|k| lo[k].min(p[k] as f64)),
+                std::array::from_fn(|k| hi[k].max(p[k] as f64)),
+            )
+        }))
+    }
+
     /// Total triangle area.
     pub fn area(&self) -> f64 {
         self.triangles
@@ -289,9 +317,19 @@ mod tests {
         let t = m.topology();
         assert!(t.is_closed_manifold(), "{t:?}");
         assert_eq!(t.euler_characteristic, 2);
-        // Far from the origin the volume stays exact.
+        let c = m.enclosed_centroid().unwrap();
+        assert!(c.iter().all(|v| (v - 0.5).abs() < 1e-12), "{c:?}");
+        assert_eq!(m.bounds(), Some(([0.0; 3], [1.0; 3])));
+        // Far from the origin the volume and centroid stay exact.
         m.positions.iter_mut().for_each(|p| p[0] += 1000.0);
         assert!((m.enclosed_volume() - 1.0).abs() < 1e-9);
+        let c = m.enclosed_centroid().unwrap();
+        assert!(
+            (c[0] - 1000.5).abs() < 1e-9 && (c[1] - 0.5).abs() < 1e-9,
+            "{c:?}"
+        );
+        assert_eq!(Mesh::default().enclosed_centroid(), None);
+        assert_eq!(Mesh::default().bounds(), None);
     }
 
     #[test]

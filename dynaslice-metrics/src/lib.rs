@@ -6,6 +6,8 @@
 //! - [`inside`]: 3D IoU against a reference triangle mesh (inside cells by ray parity).
 //! - [`heldout`]: 2D IoU on withheld planes and frames (spatial, temporal, spatio-temporal).
 //! - [`volume`]: each class's volume over time.
+//! - [`itv`]: the internal target volume, a class's union over a cycle, as a mask and a mesh.
+//! - [`motion`]: per class over a cycle: volumes, centroids, amplitudes, ejection fraction.
 
 #![warn(missing_docs)]
 
@@ -14,6 +16,8 @@ pub mod chamfer;
 pub mod heldout;
 pub mod inside;
 pub mod iou;
+pub mod itv;
+pub mod motion;
 pub mod volume;
 
 /// Which frames an average is over.

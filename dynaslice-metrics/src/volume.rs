@@ -26,20 +26,47 @@ pub struct VolumeCurve {
     pub volumes: Vec<Vec<f64>>,
 }
 
-/// The volume of every class of `model` at each of `times`, from meshes with `resolution`
-/// cells along the longest axis of its domain.
-pub fn volume_curve(model: &Model, times: &[f64], resolution: u32) -> Result<VolumeCurve> {
+/// One class's solid at one time, from its closed partition mesh.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClassShape {
+    /// Enclosed volume, world units cubed.
+    pub volume: f64,
+    /// Centroid of the enclosed solid (world); `None` where the class is absent.
+    pub centroid: Option<[f64; 3]>,
+    /// Axis-aligned bounding box `(lo, hi)` of the surface (world); `None` where absent.
+    pub bounds: Option<([f64; 3], [f64; 3])>,
+}
+
+/// The solid of every class of `model` at world time `t` (model order), from the Eq. 11
+/// partition meshes with `resolution` cells along the longest axis of its domain.
+pub fn class_shapes(model: &Model, t: f64, resolution: u32) -> Result<Vec<ClassShape>> {
     let classes: Vec<usize> = (0..model.num_classes()).collect();
     let options = mesh::Options {
         resolution,
         surfaces: Surfaces::Partition,
         ..mesh::Options::default()
     };
+    let x = mesh::extract(model, model.domain().bounds(), t as f32, &classes, &options)?;
+    Ok(x.meshes
+        .iter()
+        .map(|m| ClassShape {
+            volume: m.enclosed_volume(),
+            centroid: m.enclosed_centroid(),
+            bounds: m.bounds(),
+        })
+        .collect())
+}
+
+/// The volume of every class of `model` at each of `times`, from meshes with `resolution`
+/// cells along the longest axis of its domain ([`class_shapes`]).
+pub fn volume_curve(model: &Model, times: &[f64], resolution: u32) -> Result<VolumeCurve> {
     let volumes = times
         .iter()
         .map(|&t| {
-            let x = mesh::extract(model, model.domain().bounds(), t as f32, &classes, &options)?;
-            Ok(x.meshes.iter().map(|m| m.enclosed_volume()).collect())
+            Ok(class_shapes(model, t, resolution)?
+                .iter()
+                .map(|s| s.volume)
+                .collect())
         })
         .collect::<Result<_>>()?;
     Ok(VolumeCurve {

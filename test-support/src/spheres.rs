@@ -100,6 +100,11 @@ pub fn model(spheres: &[Sphere], classes: &[(&str, i32)]) -> Vec<u8> {
 /// [`model`] in another world domain (e.g. the identity map, where normalised sphere
 /// coordinates are world coordinates).
 pub fn model_in(domain: Domain, spheres: &[Sphere], classes: &[(&str, i32)]) -> Vec<u8> {
+    writer_in(domain, spheres, classes).to_bytes()
+}
+
+/// The writer of [`model_in`]'s file, for tests that set more (e.g. its metadata).
+pub fn writer_in(domain: Domain, spheres: &[Sphere], classes: &[(&str, i32)]) -> ModelWriter {
     assert_eq!(spheres.len(), classes.len(), "one (name, label) per sphere");
     let mut params = Vec::new();
     // First layer Wᵀ: rows x, y, z, t of the 7 units' frequencies, then the 7 phases.
@@ -135,7 +140,6 @@ pub fn model_in(domain: Domain, spheres: &[Sphere], classes: &[(&str, i32)]) -> 
         metadata: String::new(),
         weight_type: WeightType::F32,
     }
-    .to_bytes()
 }
 
 /// Three static spheres of `scale` times `radii`, in world coordinates (the identity domain):

@@ -1,0 +1,508 @@
+//! `dynaslice report MODEL -o report.html`: one self-contained page (dynaslice_report) of what
+//! the model was trained on and how, its classes, the figures of `dynaslice measure` as charts
+//! and tables, and its surfaces in 3D at several times.
+
+use super::measure::{self, time_axis, Measurement};
+use super::mesh::surfaces_at;
+use super::model::ModelFile;
+use super::options::{count, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
+use super::output::{Kind, Plan};
+use anyhow::{Context, Result};
+use dynaslice_core::Model;
+use dynaslice_data::atomic::write_via;
+use dynaslice_data::TimeSeries;
+use dynaslice_figures::plot::{class_chart, line_chart, Series};
+use dynaslice_figures::render3d::{self, RenderOptions, SurfacePanel};
+use dynaslice_metrics::motion::{round, Units};
+use dynaslice_report::{Block, Cell, Document, Section, Table};
+use std::path::{Path, PathBuf};
+
+/// Draws a figure (a PNG, by the closure given the path to write) and returns its bytes.
+type Figure<'a> = dyn Fn(&str, &dyn Fn(&Path) -> Result<()>) -> Result<Vec<u8>> + 'a;
+
+/// Panels of the 3D picture: enough to see the motion, few enough to stay readable.
+const PICTURE_TIMES: usize = 4;
+
+/// Arguments of `dynaslice report`.
+#[derive(clap::Args, Debug)]
+#[command(after_help = "\
+The page holds: the input (what the model was trained on, its units and patient frame), the
+training (the model file's record and the loss curve from MODEL.dsm.loss.csv beside the model,
+when present), the classes with their names, labels and colours, the volume over time and the
+centroid's trajectory along each axis as charts, the per-class figures over the cycle and the
+per-time table (the numbers of `dynaslice measure` with the same --times and --resolution, digit
+for digit), and the surfaces in 3D at 4 times. Images are inline (data: URIs): the one file
+opens in any browser without a network.")]
+pub struct Args {
+    /// Model file (.dsm).
+    model: PathBuf,
+    /// Output page (.html).
+    #[arg(short, long, value_name = "REPORT.html")]
+    output: PathBuf,
+    /// N times evenly from A to B inclusive (default: as `dynaslice measure`).
+    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
+          value_parser = time_series(MAX_TIMES))]
+    times: Option<TimeSeries>,
+    /// Meshing lattice cells along the longest axis of the model's domain (measurements and
+    /// the 3D picture).
+    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
+    resolution: u32,
+}
+
+/// Runs `dynaslice report`.
+pub fn run(a: Args) -> Result<()> {
+    let loss_csv = beside(&a.model, ".loss.csv");
+    let mut plan = Plan::new([&a.model, &loss_csv], true);
+    plan.file("-o", &a.output, Kind::Html)?;
+    let file = ModelFile::open(&a.model)?;
+    let model = file.model();
+    let times = measure::times_of(&file, a.times)?;
+    let m = measure::measure(&file, &times, a.resolution)?;
+    // Figures are drawn by dynaslice-figures into files; they are read back and inlined.
+    let dir = tempfile::tempdir().context("cannot create a temporary folder for the figures")?;
+    let figure = |name: &str, draw: &dyn Fn(&Path) -> Result<()>| -> Result<Vec<u8>> {
+        let path = dir.path().join(name);
+        draw(&path)?;
+        std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))
+    };
+    let name = a.model.display().to_string();
+    let mut sections = vec![
+        input_section(&model, &m),
+        training_section(&model, &loss_csv, &figure)?,
+        classes_section(&m),
+        figures_section(&m, &figure)?,
+    ];
+    sections.push(surfaces_section(&file, &m, a.resolution, &figure)?);
+    let doc = Document {
+        title: format!("DynaSlice report: {}", file_name(&a.model)),
+        subtitle: format!(
+            "model {name}; {} times from {} to {}; measured on meshes of {} cells along the \
+             longest axis",
+            times.len(),
+            times[0],
+            times[times.len() - 1],
+            a.resolution
+        ),
+        sections,
+    };
+    let html = doc.to_html();
+    write_via(&a.output, |tmp| {
+        std::fs::write(tmp, &html).with_context(|| format!("cannot write {}", tmp.display()))
+    })?;
+    eprintln!("wrote {} ({} KiB)", a.output.display(), html.len() / 1024);
+    Ok(())
+}
+
+/// `path` with `suffix` appended to its name (how `train` names its loss log).
+fn beside(path: &Path, suffix: &str) -> PathBuf {
+    let mut s = path.as_os_str().to_owned();
+    s.push(suffix);
+    PathBuf::from(s)
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into(),
+    )
+}
+
+/// The model's `key = value` metadata lines, in order.
+fn metadata(model: &Model) -> Vec<(String, String)> {
+    model
+        .metadata()
+        .lines()
+        .filter_map(|l| l.split_once(" = "))
+        .map(|(k, v)| (k.trim().to_string(), v.trim().to_string()))
+        .collect()
+}
+
+fn input_section(model: &Model, m: &Measurement) -> Section {
+    let meta = metadata(model);
+    let get = |key: &str| {
+        meta.iter()
+            .find(|(k, _)| k == key)
+            .map_or("not recorded".to_string(), |(_, v)| v.clone())
+    };
+    let (lo, hi) = model.domain().bounds();
+    let (t0, t1) = model.domain().time_range();
+    let l = m.units.length();
+    let [x, y, z] = m.frame.positive();
+    Section {
+        heading: "Input".into(),
+        blocks: vec![Block::Facts(vec![
+            ("trained on".into(), get("input")),
+            ("frames".into(), get("frames")),
+            (
+                "units".into(),
+                match m.units {
+                    Units::Millimetres => "millimetres (volumes in mL)".into(),
+                    Units::Plain => "the input's plain units (it names none)".into(),
+                },
+            ),
+            (
+                "patient frame".into(),
+                format!("{} (+x {x}, +y {y}, +z {z})", m.frame.name()),
+            ),
+            (
+                "model box (RAS world)".into(),
+                format!(
+                    "[{:.2}, {:.2}, {:.2}] to [{:.2}, {:.2}, {:.2}] {l}",
+                    lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
+                ),
+            ),
+            ("time range".into(), format!("{t0} to {t1}")),
+            ("classes".into(), model.num_classes().to_string()),
+        ])],
+    }
+}
+
+fn training_section(model: &Model, loss_csv: &Path, figure: &Figure) -> Result<Section> {
+    let facts: Vec<(String, String)> = metadata(model)
+        .into_iter()
+        .filter(|(k, _)| !["input", "frames", "class_colors"].contains(&k.as_str()))
+        .collect();
+    let mut blocks = vec![if facts.is_empty() {
+        Block::Paragraph("The model file records no training metadata.".into())
+    } else {
+        Block::Facts(facts)
+    }];
+    match std::fs::read_to_string(loss_csv) {
+        Ok(text) => {
+            let (names, rows) = parse_loss(&text)
+                .with_context(|| format!("{}: not a loss log", loss_csv.display()))?;
+            let series: Vec<Series> = names
+                .iter()
+                .enumerate()
+                .map(|(c, name)| Series {
+                    name,
+                    points: rows.iter().map(|r| (r[0], r[c + 1])).collect(),
+                })
+                .collect();
+            let png = figure("loss.png", &|p| {
+                line_chart(p, "training loss", "step", "loss", &series, true)
+            })?;
+            blocks.push(Block::Image {
+                png,
+                caption: format!(
+                    "Loss per step ({} steps, log scale), from {}",
+                    rows.len(),
+                    loss_csv.display()
+                ),
+            });
+        }
+        Err(_) => blocks.push(Block::Paragraph(format!(
+            "No loss log beside the model ({} is absent): no loss curve.",
+            loss_csv.display()
+        ))),
+    }
+    Ok(Section {
+        heading: "Training".into(),
+        blocks,
+    })
+}
+
+/// A loss log's column names (after `step`) and rows (step first); an error for anything
+/// but a header and rows of numbers.
+fn parse_loss(text: &str) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let header: Vec<String> = lines
+        .next()
+        .context("empty")?
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .collect();
+    anyhow::ensure!(
+        header.len() >= 2 && header[0] == "step",
+        "the header does not start with step"
+    );
+    let rows = lines
+        .enumerate()
+        .map(|(i, l)| {
+            let row: Vec<f64> = l
+                .split(',')
+                .map(|v| v.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .with_context(|| format!("line {}: not numbers", i + 2))?;
+            anyhow::ensure!(
+                row.len() == header.len(),
+                "line {}: {} values for {} columns",
+                i + 2,
+                row.len(),
+                header.len()
+            );
+            Ok(row)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    anyhow::ensure!(!rows.is_empty(), "no rows");
+    Ok((header[1..].to_vec(), rows))
+}
+
+fn classes_section(m: &Measurement) -> Section {
+    let rows = m
+        .classes
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            vec![
+                (k + 1).to_string().into(),
+                c.name.clone().into(),
+                c.label.to_string().into(),
+                Cell::Swatch(m.colors[k]),
+                if c.color.is_some() {
+                    "the input's"
+                } else {
+                    "palette"
+                }
+                .into(),
+            ]
+        })
+        .collect();
+    Section {
+        heading: "Classes".into(),
+        blocks: vec![Block::Table(Table {
+            header: ["channel", "name", "label", "colour", "colour from"]
+                .map(String::from)
+                .to_vec(),
+            rows,
+        })],
+    }
+}
+
+fn figures_section(m: &Measurement, figure: &Figure) -> Result<Section> {
+    let motion = &m.motion;
+    let names = &motion.classes;
+    let colors: Vec<Option<[u8; 3]>> = m.colors.iter().map(|&c| Some(c)).collect();
+    let (v, l) = (m.units.volume(), m.units.length());
+    let x_axis = time_axis(m.frame);
+    let volumes: Vec<Vec<f64>> = motion
+        .shapes
+        .iter()
+        .map(|s| s.iter().map(|c| m.volume(c.volume)).collect())
+        .collect();
+    let volume_png = figure("volume.png", &|p| {
+        class_chart(
+            p,
+            "volume over time",
+            (x_axis, &format!("volume ({v})")),
+            names,
+            &colors,
+            &motion.times,
+            &volumes,
+        )
+    })?;
+    let mut blocks = vec![Block::Image {
+        png: volume_png,
+        caption: format!("Each class's volume in {v} over {x_axis}."),
+    }];
+    let axes = if m.frame.is_anatomical() {
+        ["left–right", "anterior–posterior", "superior–inferior"]
+    } else {
+        ["x", "y", "z"]
+    };
+    let positive = m.frame.positive();
+    for a in 0..3 {
+        // Each centroid relative to its mean over the times: the motion, on one scale for all.
+        let coordinate = |f: usize, k: usize| {
+            motion.shapes[f][k]
+                .centroid
+                .map(|c| m.frame.from_world(c)[a])
+        };
+        let means: Vec<f64> = (0..names.len())
+            .map(|k| {
+                let present: Vec<f64> = (0..motion.times.len())
+                    .filter_map(|f| coordinate(f, k))
+                    .collect();
+                present.iter().sum::<f64>() / present.len().max(1) as f64
+            })
+            .collect();
+        let values: Vec<Vec<f64>> = (0..motion.times.len())
+            .map(|f| {
+                (0..names.len())
+                    .map(|k| coordinate(f, k).map_or(f64::NAN, |c| c - means[k]))
+                    .collect()
+            })
+            .collect();
+        let y = format!("displacement towards {} ({l})", positive[a]);
+        let png = figure(&format!("trajectory{a}.png"), &|p| {
+            class_chart(
+                p,
+                &format!("centroid trajectory, {}", axes[a]),
+                (x_axis, &y),
+                names,
+                &colors,
+                &motion.times,
+                &values,
+            )
+        })?;
+        blocks.push(Block::Image {
+            png,
+            caption: format!(
+                "Centroid {} displacement in {l} (positive towards {}, {} frame), relative to \
+                 its mean over the times.",
+                axes[a],
+                positive[a],
+                m.frame.name()
+            ),
+        });
+    }
+    let amplitude_header = if m.frame.is_anatomical() {
+        ["LR", "AP", "SI"]
+    } else {
+        ["x", "y", "z"]
+    };
+    let mut header: Vec<String> = [
+        "class".to_string(),
+        format!("min volume ({v})"),
+        "at time".into(),
+        format!("max volume ({v})"),
+        "at time".into(),
+        format!("stroke volume ({v})"),
+        "ejection fraction".into(),
+    ]
+    .to_vec();
+    header.extend(
+        amplitude_header
+            .iter()
+            .map(|a| format!("{a} peak-to-peak ({l})")),
+    );
+    let rows = names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let c = m.cycle(k);
+            let mut row: Vec<Cell> = vec![
+                name.clone().into(),
+                m.volume(c.min.volume).to_string().into(),
+                c.min.time.to_string().into(),
+                m.volume(c.max.volume).to_string().into(),
+                c.max.time.to_string().into(),
+                m.volume(c.stroke_volume).to_string().into(),
+                c.ejection_fraction
+                    .map_or("-".into(), |e| round(e).to_string())
+                    .into(),
+            ];
+            row.extend((0..3).map(|a| {
+                c.amplitude
+                    .map_or("-".into(), |amp| round(amp[a]).to_string())
+                    .into()
+            }));
+            row
+        })
+        .collect();
+    blocks.push(Block::Paragraph(format!(
+        "Over the {} times: the smallest and largest volume (end-systolic and end-diastolic for a \
+         ventricle), stroke volume = max − min, ejection fraction = (max − min) / max, and the \
+         centroid's peak-to-peak range along each axis.",
+        motion.times.len()
+    )));
+    blocks.push(Block::Table(Table { header, rows }));
+    // The per-time table is the CSV of `dynaslice measure`, cell for cell.
+    let csv = m.to_csv();
+    let mut lines = csv.lines();
+    let header = lines
+        .next()
+        .unwrap_or_default()
+        .split(',')
+        .map(String::from)
+        .collect();
+    let rows = lines
+        .map(|l| split_csv(l).into_iter().map(Cell::Text).collect())
+        .collect();
+    blocks.push(Block::Paragraph(format!(
+        "Per time and class (the table `dynaslice measure -o table.csv` writes): volume in {v}, \
+         centroid and bounding box in {l}, {} frame.",
+        m.frame.name()
+    )));
+    blocks.push(Block::Table(Table { header, rows }));
+    Ok(Section {
+        heading: "Motion and function".into(),
+        blocks,
+    })
+}
+
+/// The fields of one CSV line (quoted fields unquoted, `""` inside them a quote).
+fn split_csv(line: &str) -> Vec<String> {
+    let mut fields = vec![String::new()];
+    let (mut quoted, mut chars) = (false, line.chars().peekable());
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                chars.next();
+                fields.last_mut().expect("one field").push('"');
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => fields.push(String::new()),
+            (c, _) => fields.last_mut().expect("one field").push(c),
+        }
+    }
+    fields
+}
+
+fn surfaces_section(
+    file: &ModelFile,
+    m: &Measurement,
+    resolution: u32,
+    figure: &Figure,
+) -> Result<Section> {
+    let model = file.model();
+    let all = &m.motion.times;
+    // Times spread over the measured ones (all of them when there are few).
+    let n = PICTURE_TIMES.min(all.len());
+    let times: Vec<f32> = (0..n)
+        .map(|i| {
+            all[if n == 1 {
+                0
+            } else {
+                i * (all.len() - 1) / (n - 1)
+            }] as f32
+        })
+        .collect();
+    let channels: Vec<usize> = (0..model.num_classes()).collect();
+    let options = dynaslice_mesh::Options {
+        resolution,
+        ..dynaslice_mesh::Options::default()
+    };
+    let meshes = times
+        .iter()
+        .map(|&t| Ok(surfaces_at(&model, t, &channels, &options, |_| {})?.meshes))
+        .collect::<Result<Vec<_>>>()?;
+    let panels: Vec<SurfacePanel> = times
+        .iter()
+        .zip(&meshes)
+        .map(|(&t, meshes)| SurfacePanel {
+            time: f64::from(t),
+            meshes: meshes.iter().enumerate().collect(),
+        })
+        .collect();
+    let png = figure("surfaces.png", &|p| {
+        render3d::render_surfaces(p, &panels, &file.classes(), &RenderOptions::default())
+    })?;
+    Ok(Section {
+        heading: "Surfaces".into(),
+        blocks: vec![Block::Image {
+            png,
+            caption: format!(
+                "The classes' surfaces at {} times, seen from the front, a little to the \
+                 patient's right and above (superior up; `dynaslice picture --3d`).",
+                times.len()
+            ),
+        }],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_fields_and_loss_logs_parse() {
+        assert_eq!(split_csv("0,\"a, \"\"b\"\"\",3"), ["0", "a, \"b\"", "3"]);
+        let (names, rows) = parse_loss("step,total,surface\n0,1.5,1\n1,0.5,0.25\n").unwrap();
+        assert_eq!(names, ["total", "surface"]);
+        assert_eq!(rows[1], [1.0, 0.5, 0.25]);
+        assert!(parse_loss("time,x\n0,1\n").is_err());
+        assert!(parse_loss("step,x\n0,a\n").is_err());
+        assert!(parse_loss("step,x\n0\n").is_err());
+    }
+}
