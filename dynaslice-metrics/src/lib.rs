@@ -6,11 +6,13 @@
 //! - [`inside`]: 3D IoU against a reference triangle mesh (inside cells by ray parity).
 //! - [`heldout`]: 2D IoU on withheld planes and frames (spatial, temporal, spatio-temporal).
 //! - [`volume`]: each class's volume over time.
+//! - [`extent`]: classes whose extent or volume the data does not support (spurious structure).
 
 #![warn(missing_docs)]
 
 pub mod benchmark;
 pub mod chamfer;
+pub mod extent;
 pub mod heldout;
 pub mod inside;
 pub mod iou;

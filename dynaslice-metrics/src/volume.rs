@@ -29,6 +29,16 @@ pub struct VolumeCurve {
 /// The volume of every class of `model` at each of `times`, from meshes with `resolution`
 /// cells along the longest axis of its domain.
 pub fn volume_curve(model: &Model, times: &[f64], resolution: u32) -> Result<VolumeCurve> {
+    volume_curve_with(model, times, resolution, |_| {})
+}
+
+/// [`volume_curve`], calling `progress` with the number of times done after each.
+pub fn volume_curve_with(
+    model: &Model,
+    times: &[f64],
+    resolution: u32,
+    mut progress: impl FnMut(usize),
+) -> Result<VolumeCurve> {
     let classes: Vec<usize> = (0..model.num_classes()).collect();
     let options = mesh::Options {
         resolution,
@@ -37,8 +47,10 @@ pub fn volume_curve(model: &Model, times: &[f64], resolution: u32) -> Result<Vol
     };
     let volumes = times
         .iter()
-        .map(|&t| {
+        .enumerate()
+        .map(|(i, &t)| {
             let x = mesh::extract(model, model.domain().bounds(), t as f32, &classes, &options)?;
+            progress(i + 1);
             Ok(x.meshes.iter().map(|m| m.enclosed_volume()).collect())
         })
         .collect::<Result<_>>()?;
