@@ -112,7 +112,7 @@ pub fn run(a: Args) -> Result<()> {
             regular_file("reference", reference)?;
             VoxelGrid::like(&read_geometry(reference)?)
         }
-        None => bounds_grid(&a, &model)?,
+        None => bounds_grid(&a, &model, file.is_static())?,
     };
     if file.is_static() && grid.times.len() > 1 {
         // The same labels at every time: one frame, not N identical ones.
@@ -234,8 +234,9 @@ fn describe(files: &[PathBuf]) -> (String, Vec<String>) {
     (volume, companions)
 }
 
-/// The grid of `--bounds`, `--spacing` and `--times`, each defaulting to the model's.
-fn bounds_grid(a: &Args, model: &Model) -> Result<VoxelGrid> {
+/// The grid of `--bounds`, `--spacing` and `--times`, each defaulting to the model's (a static
+/// model's times to its one time).
+fn bounds_grid(a: &Args, model: &Model, is_static: bool) -> Result<VoxelGrid> {
     let (lo, hi) = match &a.bounds {
         Some(b) => match b[..] {
             [x0, y0, z0, x1, y1, z1] => ([x0, y0, z0], [x1, y1, z1]),
@@ -257,6 +258,7 @@ fn bounds_grid(a: &Args, model: &Model) -> Result<VoxelGrid> {
     };
     let times = match a.times {
         Some(series) => series.times(),
+        None if is_static => vec![f64::from(model.domain().time_range().0)],
         None => {
             let (t0, t1) = model.domain().time_range();
             TimeSeries::across(t0, t1, 10)

@@ -204,7 +204,7 @@ pub fn plane_labels(
     // right gutter for the v directions, and a bottom gutter for the u ticks, the caption with
     // the u directions at its ends, and the scale bar; the legend below, wrapped to the width.
     let (margin, heading_h, title_h, left, right, bottom) =
-        (10u32, 34u32, 26u32, 64u32, 34u32, 78u32);
+        (10u32, 34u32, 26u32, 64u32, 30u32, 78u32);
     let column = left + pw + right;
     let width = margin + column * panels.len() as u32;
     let mut items: Vec<Item> = classes

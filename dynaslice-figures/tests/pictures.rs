@@ -201,7 +201,7 @@ fn slice_picture_draws_only_the_models_classes_and_annotates_off_the_data() {
         .count();
     assert_eq!(dark, 0, "text or a scale bar on the data");
     // Beside the data: the letters R, L, A, P and the scale bar are drawn (dark pixels).
-    let dark_right = (x0 + 482..x0 + 480 + 30)
+    let dark_right = (x0 + 482..x0 + 480 + 28)
         .flat_map(|x| (top..top + 480).map(move |y| (x, y)))
         .filter(|&(x, y)| img.get_pixel(x, y).0.iter().all(|&c| c < 100))
         .count();

@@ -83,7 +83,8 @@ fn grow(b: &mut Option<Aabb>, p: [f64; 3]) {
 }
 
 /// The world box of each class's contour vertices over every frame and plane of `seq`, in the
-/// order of its classes (`None`: the class has no contour anywhere).
+/// order of its classes (`None` only for a class with no contour anywhere, which a validated
+/// sequence does not have).
 pub fn contour_bounds(seq: &Sequence) -> Vec<Option<Aabb>> {
     let mut boxes = vec![None; seq.classes().len()];
     for plane in seq.frames().iter().flat_map(|f| &f.planes) {
@@ -134,8 +135,6 @@ pub enum Problem {
         /// The contours' box's volume.
         box_volume: f64,
     },
-    /// It has a surface but no contour anywhere in the data.
-    NoContours,
     /// Its surface touches the model domain's faces `sides`: it is cut there, past every plane
     /// of the data.
     AtDomainEdge {
@@ -171,10 +170,6 @@ impl fmt::Display for Warning {
                  ({box_volume:.1} mm³): the data does not support it",
                 volume / box_volume
             ),
-            Problem::NoContours => write!(
-                f,
-                "it has a surface but no contour anywhere in the data: the surface is spurious"
-            ),
             Problem::AtDomainEdge { sides } => write!(
                 f,
                 "its surface reaches the edge of the model's domain ({}), past every plane of \
@@ -190,9 +185,9 @@ const SIDES: [[&str; 2]; 3] = [["x-", "x+"], ["y-", "y+"], ["z-", "z+"]];
 
 /// Each class of `extents` against its contours' box `contours[class]` (from
 /// [`contour_bounds`]; the same classes in the same order): reported where its surface reaches
-/// past the box by more than `tolerance.reach` of the box's longest side, where its volume is
+/// past the box by more than `tolerance.reach` of the box's longest side, or where its volume is
 /// more than `tolerance.volume` times the box's (boxes flat along an axis, a single plane's
-/// contours, are not compared by volume), or where it has a surface and no contours at all.
+/// contours, are not compared by volume).
 pub fn against_contours(
     extents: &[ClassExtent],
     contours: &[Option<Aabb>],
@@ -213,10 +208,8 @@ pub fn against_contours(
             name: e.name.clone(),
             problem,
         };
-        let Some(c) = c else {
-            warnings.push(warn(Problem::NoContours));
-            continue;
-        };
+        // A sequence contours every class somewhere (its readers refuse one that is not).
+        let Some(c) = c else { continue };
         let sides: [f64; 3] = std::array::from_fn(|a| c.max[a] - c.min[a]);
         let longest = sides.iter().copied().fold(0.0, f64::max);
         let allowed = tolerance.reach * longest;
@@ -345,7 +338,7 @@ mod tests {
     #[test]
     fn contour_boxes_are_per_class_over_every_plane() {
         let seq = Sequence::new(
-            ["a", "b", "c"]
+            ["a", "b"]
                 .iter()
                 .zip(1..)
                 .map(|(name, label)| ClassInfo {
@@ -378,11 +371,10 @@ mod tests {
                 max: [35.0, 35.0, 5.0]
             })
         );
-        assert_eq!(b[2], None);
     }
 
     /// A kidney whose contours span 100 mm: 30 mm past them passes, 100 mm past (and 10× the
-    /// box's volume) is reported on the side it overshoots; a surface without contours is.
+    /// box's volume) is reported on the side it overshoots.
     #[test]
     fn far_reaches_and_large_volumes_are_reported() {
         let contours = [
@@ -394,7 +386,6 @@ mod tests {
                 min: [0.0, 0.0, 0.0],
                 max: [100.0, 50.0, 40.0],
             }),
-            None,
         ];
         let box_volume = 100.0 * 50.0 * 40.0;
         let fine = extent(
@@ -404,9 +395,8 @@ mod tests {
             0.5 * box_volume,
         );
         let bad = extent(1, [0.0, 0.0, 0.0], [100.0, 50.0, 140.0], 10.0 * box_volume);
-        let stray = extent(2, [0.0; 3], [1.0; 3], 1.0);
-        let w = against_contours(&[fine, bad, stray], &contours, DEFAULT_TOLERANCE).unwrap();
-        assert_eq!(w.len(), 3, "{w:?}");
+        let w = against_contours(&[fine, bad], &contours, DEFAULT_TOLERANCE).unwrap();
+        assert_eq!(w.len(), 2, "{w:?}");
         assert_eq!(
             w[0].problem,
             Problem::PastContours {
@@ -416,7 +406,6 @@ mod tests {
             }
         );
         assert!(matches!(w[1].problem, Problem::LargerThanContours { .. }));
-        assert_eq!((w[2].class, &w[2].problem), (2, &Problem::NoContours));
         let text = w[0].to_string();
         assert!(
             text.starts_with("class 2 \"c1\": its surface reaches 100.0 mm"),
@@ -424,11 +413,8 @@ mod tests {
         );
         assert!(w[1].to_string().contains("10.0×"), "{}", w[1]);
         // A class count that does not match is an error, not a silent pass.
-        assert!(against_contours(&w_extents(), &contours[..1], DEFAULT_TOLERANCE).is_err());
-    }
-
-    fn w_extents() -> Vec<ClassExtent> {
-        vec![extent(0, [0.0; 3], [1.0; 3], 1.0); 2]
+        let three = vec![extent(0, [0.0; 3], [1.0; 3], 1.0); 3];
+        assert!(against_contours(&three, &contours, DEFAULT_TOLERANCE).is_err());
     }
 
     /// Through a real model: a ball inside the domain is not at its edge, and its extent is its
