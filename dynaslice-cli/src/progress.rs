@@ -1,6 +1,7 @@
 //! Progress of a command's long work, so that no step is silent for more than a few seconds: on
 //! a terminal an indicatif bar that redraws itself every second; elsewhere (a log file, a pipe,
-//! the demo captured) a line `WHAT done/total, S s` whenever [`QUIET`] has passed without a line.
+//! the demo captured) a line `WHAT done/total, S s` whenever [`QUIET`] has passed without a line,
+//! and a last one at the end of work that printed any, so the next step follows within `QUIET`.
 
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -17,6 +18,9 @@ struct State {
     done: u64,
     total: u64,
     last_line: Instant,
+    /// Whether a progress line was printed: then the end gets one too, so the next step's
+    /// first line follows within [`QUIET`].
+    printed: bool,
     finished: bool,
 }
 
@@ -38,6 +42,7 @@ impl Progress {
                 done: 0,
                 total,
                 last_line: start,
+                printed: false,
                 finished: false,
             }),
             Condvar::new(),
@@ -75,9 +80,19 @@ impl Progress {
                         start.elapsed().as_secs_f64()
                     );
                     s.last_line = now;
+                    s.printed = true;
                 } else {
                     s = wake.wait_timeout(s, due - now).expect("progress state").0;
                 }
+            }
+            if s.printed {
+                eprintln!(
+                    "{} {}/{} in {:.0} s",
+                    s.what,
+                    s.done,
+                    s.total,
+                    start.elapsed().as_secs_f64()
+                );
             }
         });
         Progress {

@@ -76,10 +76,8 @@ pub fn class_extents(
 
 fn grow(b: &mut Option<Aabb>, p: [f64; 3]) {
     let b = b.get_or_insert(Aabb { min: p, max: p });
-    for a in 0..3 {
-        b.min[a] = b.min[a].min(p[a]);
-        b.max[a] = b.max[a].max(p[a]);
-    }
+    b.min = std::array::from_fn(|a| b.min[a].min(p[a]));
+    b.max = std::array::from_fn(|a| b.max[a].max(p[a]));
 }
 
 /// The world box of each class's contour vertices over every frame and plane of `seq`, in the
@@ -434,9 +432,9 @@ mod tests {
         let b = extents[0].bounds.unwrap();
         let s = f64::from(SPHERES_DOMAIN.scale[0]);
         let c = SPHERES_DOMAIN.center.map(f64::from);
-        for a in 0..3 {
-            assert!((b.min[a] - (c[a] - 0.5 * s)).abs() < 0.05 * s, "{b:?}");
-            assert!((b.max[a] - (c[a] + 0.5 * s)).abs() < 0.05 * s, "{b:?}");
+        for (a, c) in c.iter().enumerate() {
+            assert!((b.min[a] - (c - 0.5 * s)).abs() < 0.05 * s, "{b:?}");
+            assert!((b.max[a] - (c + 0.5 * s)).abs() < 0.05 * s, "{b:?}");
         }
         let w = against_domain(&extents, &model, cell(&model, 32));
         assert_eq!(w.len(), 1, "{w:?}");
