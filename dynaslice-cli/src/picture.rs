@@ -301,9 +301,16 @@ pub fn run(a: Args) -> Result<()> {
             if left_out.len() > 5 { ", …" } else { "" }
         ));
     }
+    // Each panel evaluates the network at every pixel: tens of seconds on a loaded machine.
+    let progress = Progress::new(
+        "drawing the model's labels on the plane: panels",
+        panels.len() as u64,
+    );
     write_via(&a.output, |tmp| {
         plane_labels(&model, &classes, &drawn_as, plane, &panels, tmp)
     })?;
+    progress.set_position(panels.len() as u64);
+    progress.finish();
     eprintln!("wrote {}", a.output.display());
     Ok(())
 }
