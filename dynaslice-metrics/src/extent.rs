@@ -171,8 +171,8 @@ impl fmt::Display for Warning {
             Problem::AtDomainEdge { sides } => write!(
                 f,
                 "its surface reaches the edge of the model's domain ({}), past every plane of \
-                 the data, and is cut there; give the input (`--input`) to compare it with its \
-                 contours",
+                 the data, and is cut there: likely spurious structure where no plane \
+                 constrains it",
                 sides.join(", ")
             ),
         }
