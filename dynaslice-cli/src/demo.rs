@@ -18,9 +18,10 @@ pub struct Args {
     /// Training steps (the learning-rate schedule spans them).
     #[arg(long, default_value_t = 1000, value_parser = count(1, MAX_STEPS))]
     steps: u64,
-    /// Upper bound on training time, minutes.
-    #[arg(long, default_value_t = 4.0, value_parser = positive_f64_to(MAX_MINUTES), allow_negative_numbers = true)]
-    minutes: f64,
+    /// Cap on training time, minutes: training stops there even short of --steps (default: no
+    /// cap, every step runs).
+    #[arg(long, value_parser = positive_f64_to(MAX_MINUTES), allow_negative_numbers = true)]
+    minutes: Option<f64>,
     /// Widths of the sine layers.
     #[arg(long, default_value = "256,256,256,256")]
     widths: String,
@@ -55,19 +56,21 @@ pub fn run(a: Args) -> Result<()> {
             "chambers".into(),
             "--force".into(),
         ],
-        vec![
-            "train".into(),
-            slices.clone(),
-            "-o".into(),
-            model.clone(),
-            "--steps".into(),
-            a.steps.to_string(),
-            "--minutes".into(),
-            a.minutes.to_string(),
-            "--widths".into(),
-            a.widths.clone(),
-            "--force".into(),
-        ],
+        [
+            vec![
+                "train".into(),
+                slices.clone(),
+                "-o".into(),
+                model.clone(),
+                "--steps".into(),
+                a.steps.to_string(),
+            ],
+            a.minutes
+                .map(|m| vec!["--minutes".into(), m.to_string()])
+                .unwrap_or_default(),
+            vec!["--widths".into(), a.widths.clone(), "--force".into()],
+        ]
+        .concat(),
         vec![
             "mesh".into(),
             model.clone(),
@@ -136,6 +139,16 @@ pub fn run(a: Args) -> Result<()> {
             out("surfaces.png"),
         ],
     ];
+    eprintln!(
+        "demo: {} commands; training runs {} steps of a {} network, {}",
+        lines.len(),
+        a.steps,
+        a.widths,
+        match a.minutes {
+            Some(m) => format!("stopping early if {m} minutes pass first (--minutes)"),
+            None => "all of them (no time cap; --minutes sets one)".to_string(),
+        }
+    );
     for line in &lines {
         run_line(line)?;
     }

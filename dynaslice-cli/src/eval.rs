@@ -9,6 +9,8 @@ use super::options::{
     MAX_PIXELS, MAX_TIMES,
 };
 use super::output::{regular_file, Kind, Plan};
+use super::progress::Progress;
+use super::times::model_times;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::format::MAX_CLASSES;
 use dynaslice_data::atomic::write_atomically;
@@ -21,7 +23,7 @@ use dynaslice_figures::plot::volume_chart;
 use dynaslice_metrics::benchmark::{Resolution, Scores, Truth};
 use dynaslice_metrics::chamfer::{self, DEFAULT_SAMPLES};
 use dynaslice_metrics::heldout::{self, Split, DEFAULT_PIXELS};
-use dynaslice_metrics::volume::volume_curve;
+use dynaslice_metrics::volume::volume_curve_with;
 use dynaslice_metrics::Frames;
 use dynaslice_train::data_sampler::domain_for;
 use dynaslice_train::model_file::check_model_limits;
@@ -161,7 +163,8 @@ struct SplitArgs {
 struct VolumeArgs {
     /// Model file (.dsm).
     model: PathBuf,
-    /// N times evenly from A to B inclusive (default: the model's time range in 20 steps).
+    /// N times evenly from A to B inclusive (default: the model's time range in 20 steps; a
+    /// static model, the same at every time, is measured once).
     #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
@@ -227,10 +230,24 @@ fn synthetic(a: SyntheticArgs) -> Result<()> {
         truth: a.truth_resolution,
         samples: a.samples,
     };
-    let truth = Truth::new(shape, &annotated_frames, resolution)?;
+    let frames = bench.timesteps as u64;
+    let progress = Progress::new(
+        &format!(
+            "meshing the exact {} at {}³: frame",
+            shape.name(),
+            a.truth_resolution
+        ),
+        frames,
+    );
+    let truth = Truth::new_with(shape, &annotated_frames, resolution, |f| {
+        progress.set_position(f as u64)
+    })?;
+    progress.finish();
+    let progress = Progress::new("scoring the model: frame", frames);
     let Scores { iou, cd } = truth
-        .score(&model)
+        .score_with(&model, |f| progress.set_position(f as u64))
         .with_context(|| a.model.display().to_string())?;
+    progress.finish();
     println!(
         "{} ({} classes), {} frames ({} annotated): 3D IoU on a {}³ grid over [-1, 1]³; \
          CD×10⁴ over {} samples per surface, unit-normalised by the domain diagonal 2√3",
@@ -274,10 +291,7 @@ fn reference(a: ReferenceArgs) -> Result<()> {
     let model = file.model();
     let k = model.num_classes();
     let t = match a.time {
-        Some(t) => {
-            file.check_time("--time", t)?;
-            t
-        }
+        Some(t) => model_times(&file, &a.model, "--time", &[t], "scoring its one surface")?[0],
         None => model.domain().time_range().0,
     };
     if !(1..=k).contains(&a.class) {
@@ -305,9 +319,17 @@ fn reference(a: ReferenceArgs) -> Result<()> {
         );
     };
     let diagonal = chamfer::bounding_diagonal(&reference);
+    let when = if file.is_static() {
+        format!("(a static model, the same at every time; its time {t})")
+    } else {
+        format!("at t = {t}")
+    };
     println!(
-        "CD×10⁴ = {:.4} (model → reference {:.4}, reference → model {:.4}); {} samples per \
-         surface, unit-normalised by the reference's bounding-box diagonal {diagonal:.4}",
+        "class {} {:?} {when}: CD×10⁴ = {:.4} (model → reference {:.4}, reference → model \
+         {:.4}); {} samples per surface, unit-normalised by the reference's bounding-box \
+         diagonal {diagonal:.4}",
+        a.class,
+        model.class(a.class as u32)?.name,
         cd.scaled(),
         cd.to_reference * 1e4,
         cd.from_reference * 1e4,
@@ -386,19 +408,29 @@ fn volume(a: VolumeArgs) -> Result<()> {
     plan.beside(&png)?;
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
-    let times = match a.times {
-        Some(series) => series.times(),
+    let requested: Vec<f32> = match a.times {
+        // The network takes f32 times.
+        Some(series) => series.times().into_iter().map(|t| t as f32).collect(),
+        None if file.is_static() => vec![model.domain().time_range().0],
         None => {
             let (t0, t1) = model.domain().time_range();
             TimeSeries::across(t0, t1, 20)
                 .map_err(anyhow::Error::msg)?
                 .times()
+                .into_iter()
+                .map(|t| t as f32)
+                .collect()
         }
     };
-    for &t in &times {
-        file.check_time("--times", t as f32)?;
-    }
-    let curve = volume_curve(&model, &times, a.resolution)?;
+    let times: Vec<f64> = model_times(&file, &a.model, "--times", &requested, "measuring once")?
+        .into_iter()
+        .map(f64::from)
+        .collect();
+    let progress = Progress::new("measuring class volumes: time", times.len() as u64);
+    let curve = volume_curve_with(&model, &times, a.resolution, |i| {
+        progress.set_position(i as u64)
+    })?;
+    progress.finish();
     write_via(&a.output, |tmp| curve.write_csv(tmp))?;
     let title = format!("class volumes of {}", a.model.display());
     write_via(&png, |tmp| {

@@ -1,19 +1,38 @@
 //! `dynaslice info MODEL`.
 
+use super::input::{self, InputArgs};
 use super::model::ModelFile;
-use anyhow::Result;
+use super::progress::Progress;
+use anyhow::{Context, Result};
 use dynaslice_core::Weights;
+use dynaslice_metrics::extent;
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice info`.
 #[derive(clap::Args, Debug)]
+#[command(
+    // The training input is optional: without it the extent check has the model alone.
+    mut_arg("inputs", |a| a.required(false)),
+    after_help = "\
+Extent check: info meshes every class (at the model's time, or 5 times over a moving model's
+range) and warns of classes the data does not support. With the training input (INPUT…, read
+with the same options as when training), each class is compared with its own contours: a
+surface reaching past their box by more than half its longest side, or a volume over twice the
+box's, is reported. Without it, the model holds only its domain (the data's box plus a margin):
+a surface touching the domain's edge is reported, as it lies past every plane of the data.")]
 pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
+    #[command(flatten)]
+    input: InputArgs,
 }
 
+/// Times a moving model's extent is checked at, evenly over its range.
+const CHECK_TIMES: usize = 5;
+
 /// Runs `dynaslice info`: prints the model's size, layer widths, cost per point, world bounds,
-/// time range, ω_t^max (normalised time), classes with their source labels, and metadata.
+/// time range and ω_t^max (normalised time) of a moving model (a static one has no time axis),
+/// classes with their source labels, and metadata.
 pub fn run(args: Args) -> Result<()> {
     let file = ModelFile::open(&args.model)?;
     let model = file.model();
@@ -41,8 +60,15 @@ pub fn run(args: Args) -> Result<()> {
         "bounds       [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
         lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
     );
-    println!("time range   {t0} .. {t1}");
-    println!("ω_t^max      {} (normalised time)", model.omega_t_max());
+    if file.is_static() {
+        println!(
+            "time         none: a static model (trained on one timestep, ω_t^max = 0), the same \
+             at every time; its outputs are one frame, at t = {t0}"
+        );
+    } else {
+        println!("time range   {t0} .. {t1}");
+        println!("ω_t^max      {} (normalised time)", model.omega_t_max());
+    }
     for (k, class) in model.classes().enumerate() {
         println!(
             "class {:<6} {:?} (source label {})",
@@ -57,5 +83,65 @@ pub fn run(args: Args) -> Result<()> {
             println!("  {line}");
         }
     }
+    check_extents(&args, &file)
+}
+
+/// The extent check ([`dynaslice_metrics::extent`]): each class's surfaces against its contours
+/// in the input where given, and against the model's domain; the warnings on standard error, a
+/// summary line on standard output.
+fn check_extents(args: &Args, file: &ModelFile) -> Result<()> {
+    let model = file.model();
+    let times: Vec<f32> = if file.is_static() {
+        vec![model.domain().time_range().0]
+    } else {
+        let (t0, t1) = model.domain().time_range();
+        (0..CHECK_TIMES)
+            .map(|i| t0 + (t1 - t0) * i as f32 / (CHECK_TIMES - 1) as f32)
+            .collect()
+    };
+    let seq = if args.input.inputs.is_empty() {
+        None
+    } else {
+        Some(input::read(&args.input)?)
+    };
+    let progress = Progress::new(
+        "extent check: meshing the classes, time",
+        times.len() as u64,
+    );
+    let extents = extent::class_extents(&model, &times, extent::DEFAULT_RESOLUTION, |i| {
+        progress.set_position(i as u64)
+    })?;
+    progress.finish();
+    let mut warnings = match &seq {
+        Some(seq) => extent::against_contours(
+            &extents,
+            &extent::contour_bounds(seq),
+            extent::DEFAULT_TOLERANCE,
+        )
+        .with_context(|| format!("{} against {}", args.model.display(), args.input.describe()))?,
+        None => Vec::new(),
+    };
+    warnings.extend(extent::against_domain(
+        &extents,
+        &model,
+        extent::cell(&model, extent::DEFAULT_RESOLUTION),
+    ));
+    for w in &warnings {
+        log::warn!("{}: {w}", args.model.display());
+    }
+    let against = match &seq {
+        Some(_) => format!("their contours in {} and the domain", args.input.describe()),
+        None => "the model's domain only (give the training input to compare with the \
+                 contours)"
+            .to_string(),
+    };
+    let verdict = match warnings.len() {
+        0 => "every class within them".to_string(),
+        n => format!("{n} warning(s), on standard error"),
+    };
+    println!(
+        "extents      the classes' surfaces at {} time(s) against {against}: {verdict}",
+        times.len()
+    );
     Ok(())
 }

@@ -9,16 +9,16 @@ use super::options::{
     count, f32_in, finite_f64, positive_f64, time_series, MAX_SAFETY, MAX_THREADS, MAX_TIMES,
 };
 use super::output::{regular_file, Kind, Plan};
+use super::progress::Progress;
+use super::times::note;
 use anyhow::{bail, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::nifti::read_geometry;
 use dynaslice_data::{palette, TimeSeries};
 use dynaslice_metrics::motion::Units;
 use dynaslice_volume::{output_files, Evaluation, VoxelGrid, WriteOptions, DEFAULT_SAFETY};
-use indicatif::{ProgressBar, ProgressStyle};
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// Arguments of `dynaslice labels`.
 #[derive(clap::Args, Debug)]
@@ -56,7 +56,7 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', value_parser = positive_f64, allow_negative_numbers = true)]
     spacing: Option<Vec<f64>>,
     /// Frames at N times evenly from A to B inclusive (default: the model's time range in 10
-    /// frames).
+    /// frames; a static model, the same at every time, gets one frame).
     #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
@@ -107,15 +107,30 @@ pub fn run(a: Args) -> Result<()> {
     evaluation.validate()?;
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
-    let grid = match &a.like {
+    let mut grid = match &a.like {
         // The header alone: the reference's voxels are never needed, and its size is known
         // (and checked below) before anything is allocated for it.
         Some(reference) => {
             regular_file("reference", reference)?;
             VoxelGrid::like(&read_geometry(reference)?)
         }
-        None => bounds_grid(&a, &model)?,
+        None => bounds_grid(&a, &model, file.is_static())?,
     };
+    if file.is_static() && grid.times.len() > 1 {
+        // The same labels at every time: one frame, not N identical ones.
+        note(&format!(
+            "{}: a static model (trained on one timestep, ω_t^max = 0) is the same at every \
+             time; writing one label frame, not the {} frames of {}",
+            a.model.display(),
+            grid.times.len(),
+            if a.like.is_some() {
+                "--like"
+            } else {
+                "--times"
+            }
+        ));
+        grid.times.truncate(1);
+    }
     // The one time rule: a frame outside the model's range (a --times series past it, or a
     // reference with more or longer frames) is refused, never extrapolated.
     let option = if a.like.is_some() {
@@ -123,7 +138,9 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         "--times"
     };
-    file.check_times(option, grid.times.iter().copied())?;
+    if !file.is_static() {
+        file.check_times(option, grid.times.iter().copied())?;
+    }
     let [nx, ny, nz] = grid.dims;
     memory::check(
         &format!("a label volume of {nx}×{ny}×{nz} voxels"),
@@ -156,39 +173,13 @@ pub fn run(a: Args) -> Result<()> {
         .build()
         .context("cannot start worker threads")?;
     let start = Instant::now();
-    let terminal = std::io::stderr().is_terminal();
-    let bar = terminal.then(|| {
-        let bar = ProgressBar::new(frames as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:30}] frame {pos}/{len} ETA {eta}",
-            )
-            .expect("valid template")
-            .progress_chars("=> "),
-        );
-        bar
-    });
-    let mut last_log = Instant::now();
-    let counts =
-        pool.install(|| {
-            dynaslice_volume::write_model_labels_with(&model, &grid, &a.output, &options, |f| {
-                match &bar {
-                    Some(bar) => bar.set_position(f as u64 + 1),
-                    None if last_log.elapsed() >= Duration::from_secs(10) => {
-                        eprintln!(
-                            "frame {}/{frames}, {:.0} s",
-                            f + 1,
-                            start.elapsed().as_secs_f64()
-                        );
-                        last_log = Instant::now();
-                    }
-                    None => {}
-                }
-            })
-        })?;
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
+    let progress = Progress::new("labelling: frame", frames as u64);
+    let counts = pool.install(|| {
+        dynaslice_volume::write_model_labels_with(&model, &grid, &a.output, &options, |f| {
+            progress.set_position(f as u64 + 1)
+        })
+    })?;
+    progress.finish();
     let (volume, companions) = describe(&files);
     eprintln!(
         "wrote {volume}: {nx}×{ny}×{nz} voxels × {frames} frame(s) in {:.1} s",
@@ -204,17 +195,19 @@ pub fn run(a: Args) -> Result<()> {
     let (units, _) = units_and_frame(&model);
     for ((k, class), color) in model.classes().enumerate().zip(colors) {
         let v = |f: usize| units.from_world_volume(counts[f][k + 1] as f64 * voxel);
+        // Times come from f32 header fields: print them at that precision (1, not
+        // 1.0000000074505806).
+        let at = |f: usize| format!("{:.6} at t = {}", v(f), grid.times[f] as f32);
+        let volumes = if frames == 1 {
+            at(0)
+        } else {
+            format!("{}, {}", at(0), at(frames - 1))
+        };
         eprintln!(
-            "  label {} {:?} {}: {:.6} at t = {}, {:.6} at t = {} ({})",
+            "  label {} {:?} {}: {volumes} ({})",
             class.label,
             class.name,
             palette::to_hex(color),
-            v(0),
-            // Times come from f32 header fields: print them at that precision (1, not
-            // 1.0000000074505806).
-            grid.times[0] as f32,
-            v(frames - 1),
-            grid.times[frames - 1] as f32,
             match units {
                 Units::Millimetres => "mL",
                 Units::Plain => "the input's plain units³",
@@ -258,8 +251,9 @@ fn describe(files: &[PathBuf]) -> (String, Vec<String>) {
     (volume, companions)
 }
 
-/// The grid of `--bounds`, `--spacing` and `--times`, each defaulting to the model's.
-fn bounds_grid(a: &Args, model: &Model) -> Result<VoxelGrid> {
+/// The grid of `--bounds`, `--spacing` and `--times`, each defaulting to the model's (a static
+/// model's times to its one time).
+fn bounds_grid(a: &Args, model: &Model, is_static: bool) -> Result<VoxelGrid> {
     let (lo, hi) = match &a.bounds {
         Some(b) => match b[..] {
             [x0, y0, z0, x1, y1, z1] => ([x0, y0, z0], [x1, y1, z1]),
@@ -281,6 +275,7 @@ fn bounds_grid(a: &Args, model: &Model) -> Result<VoxelGrid> {
     };
     let times = match a.times {
         Some(series) => series.times(),
+        None if is_static => vec![f64::from(model.domain().time_range().0)],
         None => {
             let (t0, t1) = model.domain().time_range();
             TimeSeries::across(t0, t1, 10)

@@ -9,13 +9,13 @@ use super::options::{
     MAX_THREADS, MAX_TIMES,
 };
 use super::output::{Kind, Plan};
+use super::progress::Progress;
+use super::times::model_times;
 use anyhow::{anyhow, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::TimeSeries;
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
 use dynaslice_mesh::{self as mesh, Extraction, Options, Sampling, Surfaces, DEFAULT_SAFETY};
-use indicatif::{ProgressBar, ProgressStyle};
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -26,7 +26,9 @@ File names: with --time, one class is written to OUT itself; several classes go 
 STEM_classK_NAME.EXT (e.g. -o t.ply writes t_class1_liver.ply, t_class2_spleen.ply), NAME the
 class name reduced to letters, digits and '-'. With --times, OUT is a directory of
 classK_NAME_tIIII.EXT files (IIII the time's index), plus series.pvd for ParaView (vtp).
-A static model (trained on one timestep) needs no --time.
+A static model (trained on one timestep) needs no --time, and is meshed once whatever --time or
+--times asks (its surfaces are the same at every time; a note says so): with --times, OUT gets
+one file per class at the model's time.
 PLY and VTP vertices carry the class colour (the training input's, else the palette's): PLY
 red/green/blue, VTP point data Colors. OBJ and STL carry none.")]
 pub struct Args {
@@ -145,15 +147,24 @@ fn mesh_all(args: &Args) -> Result<()> {
         .map_err(|e| anyhow!("{}: {e}", args.model.display()))?;
     let names: Vec<String> = model.classes().map(|c| c.name.to_string()).collect();
     let colors = file.class_colors();
-    let times = match (&args.times, args.time) {
+    let (option, requested) = match (&args.times, args.time) {
         // The network takes f32 times (the f64 series rounded once).
-        (Some(series), _) => series.times().into_iter().map(|t| t as f32).collect(),
-        (None, t) => vec![file.time("--time", t)?],
+        (Some(series), _) => (
+            "--times",
+            series.times().into_iter().map(|t| t as f32).collect(),
+        ),
+        (None, Some(t)) => ("--time", vec![t]),
+        (None, None) => ("--time", vec![file.time("--time", None)?]),
     };
-    // The network is only fitted on its time range; outside it, it extrapolates freely.
-    for &t in &times {
-        file.check_time("time", t)?;
-    }
+    // Checked against the time range (outside it the network extrapolates freely); a static
+    // model's surfaces are meshed once.
+    let times = model_times(
+        &file,
+        &args.model,
+        option,
+        &requested,
+        "writing one mesh per class",
+    )?;
     if args.dense {
         // The dense lattice's values: K f32 per vertex, its hash-map entry and cell list
         // (about 48 bytes per vertex); the domain is a cube, so (resolution + 1)³ vertices.
@@ -196,23 +207,10 @@ fn mesh_all(args: &Args) -> Result<()> {
         }
     }
 
-    let bar = (series && std::io::stderr().is_terminal()).then(|| {
-        let bar = ProgressBar::new(times.len() as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:30}] {pos}/{len} times ETA {eta}",
-            )
-            .expect("valid template")
-            .progress_chars("=> "),
-        );
-        bar
-    });
+    let progress = Progress::new("meshing: time", times.len() as u64);
     let (mut values, mut jacobians, mut dense) = (0u64, 0u64, 0u64);
     let started = Instant::now();
-    let report = |line: String| match &bar {
-        Some(bar) => bar.println(line),
-        None => eprintln!("{line}"),
-    };
+    let report = |line: String| progress.println(line);
     for (i, &t) in times.iter().enumerate() {
         let Extraction { meshes, stats, .. } = surfaces_at(&model, t, &classes, &options, report)?;
         values += stats.value_evaluations;
@@ -239,13 +237,9 @@ fn mesh_all(args: &Args) -> Result<()> {
             let class = model.class(k as u32 + 1)?;
             files.write(i, t, k, class, colors[k], mesh)?;
         }
-        if let Some(bar) = &bar {
-            bar.inc(1);
-        }
+        progress.inc();
     }
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
+    progress.finish();
     match files.finish()? {
         Some(pvd) => eprintln!("wrote {}", pvd.display()),
         None if series => eprintln!(

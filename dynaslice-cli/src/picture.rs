@@ -6,9 +6,11 @@ use super::mesh::surfaces_at;
 use super::model::ModelFile;
 use super::options::{count, finite_f64, MAX_MESH_RESOLUTION};
 use super::output::{Kind, Plan};
+use super::progress::Progress;
+use super::times::{model_times, note};
 use anyhow::{bail, Context, Result};
 use dynaslice_data::atomic::write_via;
-use dynaslice_figures::picture::{plane_labels, Panel};
+use dynaslice_figures::picture::{match_classes, plane_labels, Panel};
 use dynaslice_figures::render3d::{self, Camera, RenderOptions, SurfacePanel};
 use dynaslice_mesh::Options;
 use std::path::PathBuf;
@@ -155,10 +157,9 @@ fn run_3d(a: Args) -> Result<()> {
                 .collect()
         }
     };
-    // Every time is checked before any meshing: outside the range the network extrapolates.
-    for &t in &times {
-        file.check_time("--times", t)?;
-    }
+    // Every time is checked before any meshing: outside the range the network extrapolates. A
+    // static model is drawn once.
+    let times = model_times(&file, &a.model, "--times", &times, "drawing one panel")?;
     // Names, labels and the input's colours where the model records them.
     let classes = file.classes();
     let channels: Vec<usize> = (0..model.num_classes()).collect();
@@ -166,11 +167,17 @@ fn run_3d(a: Args) -> Result<()> {
         resolution: a.resolution,
         ..Options::default()
     };
-    let report = |line: String| eprintln!("{line}");
+    let progress = Progress::new("meshing: time", times.len() as u64);
+    let report = |line: String| progress.println(line);
     let meshes = times
         .iter()
-        .map(|&t| Ok(surfaces_at(&model, t, &channels, &options, report)?.meshes))
+        .map(|&t| {
+            let meshes = surfaces_at(&model, t, &channels, &options, report)?.meshes;
+            progress.inc();
+            Ok(meshes)
+        })
         .collect::<Result<Vec<_>>>()?;
+    progress.finish();
     let panels: Vec<SurfacePanel> = times
         .iter()
         .zip(&meshes)
@@ -247,7 +254,18 @@ pub fn run(a: Args) -> Result<()> {
     };
     let plane = &frame.planes[plane_index];
     let extra = match a.times {
+        Some(t) if file.is_static() => {
+            note(&format!(
+                "{}: a static model (trained on one timestep, ω_t^max = 0) is the same at \
+                 every time; drawing one panel, not the {} extra time(s) of --times",
+                a.model.display(),
+                t.len()
+            ));
+            vec![]
+        }
         Some(t) => t,
+        // Another time of a static model would show the same labels.
+        None if file.is_static() => vec![],
         None => match frames.get(a.frame + 1) {
             Some(next) => vec![0.5 * (frame.time + next.time)],
             None => vec![],
@@ -266,9 +284,36 @@ pub fn run(a: Args) -> Result<()> {
         title: format!("t = {t:.4} (not annotated)"),
         contours: None,
     }));
+    // Only the model's classes are drawn: the input's others (a 41-label map behind a model of
+    // 3 of its labels) are left out of the contours and the legend, with a note.
+    let classes = file.classes();
+    let drawn_as = match_classes(&classes, seq.classes());
+    let left_out: Vec<&str> = seq
+        .classes()
+        .iter()
+        .zip(&drawn_as)
+        .filter(|(_, k)| k.is_none())
+        .map(|(c, _)| c.name.as_str())
+        .collect();
+    if !left_out.is_empty() {
+        note(&format!(
+            "{} of the input's {} classes are not the model's and are not drawn ({}{})",
+            left_out.len(),
+            drawn_as.len(),
+            left_out[..left_out.len().min(5)].join(", "),
+            if left_out.len() > 5 { ", …" } else { "" }
+        ));
+    }
+    // Each panel evaluates the network at every pixel: tens of seconds on a loaded machine.
+    let progress = Progress::new(
+        "drawing the model's labels on the plane: panels",
+        panels.len() as u64,
+    );
     write_via(&a.output, |tmp| {
-        plane_labels(&model, &seq, plane, &panels, tmp)
+        plane_labels(&model, &classes, &drawn_as, plane, &panels, tmp)
     })?;
+    progress.set_position(panels.len() as u64);
+    progress.finish();
     eprintln!("wrote {}", a.output.display());
     Ok(())
 }

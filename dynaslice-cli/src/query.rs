@@ -8,16 +8,23 @@ use std::path::PathBuf;
 
 /// Arguments of `dynaslice query`.
 #[derive(clap::Args, Debug)]
+#[command(after_help = "\
+Coordinates are in the model's world frame, RAS (NIfTI's: +x toward the patient's right, +y
+anterior, +z superior; docs/data-format.md), in the training input's units (mm for NIfTI, DICOM
+and 3D Slicer inputs). A point read in 3D Slicer, ITK or a DICOM viewer is in LPS:
+negate its x and y (LPS (10, 20, 30) is RAS (-10, -20, 30)). `dynaslice info` prints the
+model's world bounds.")]
 pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
-    /// World x (e.g. mm).
+    /// World x in the model's RAS frame (+x toward the patient's right, R), in the input's
+    /// units (e.g. mm); from LPS (3D Slicer, ITK, DICOM), negate x.
     #[arg(allow_negative_numbers = true, value_parser = finite_f32)]
     x: f32,
-    /// World y.
+    /// World y in the RAS frame (+y anterior, A); from LPS, negate y.
     #[arg(allow_negative_numbers = true, value_parser = finite_f32)]
     y: f32,
-    /// World z.
+    /// World z in the RAS frame (+z superior, S), the same in LPS.
     #[arg(allow_negative_numbers = true, value_parser = finite_f32)]
     z: f32,
     /// World time (the model's time units), within the model's time range; optional for a

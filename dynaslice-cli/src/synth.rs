@@ -5,6 +5,7 @@ use super::options::{
     count, MAX_PLANE_RESOLUTION, MAX_SYNTH_PLANES, MAX_SYNTH_TIMESTEPS, MAX_VOLUME_RESOLUTION,
 };
 use super::output::Plan;
+use super::progress::Progress;
 use anyhow::{bail, Context, Result};
 use dynaslice_data::synth::{write_benchmark, BenchmarkOptions, Shape};
 use std::path::PathBuf;
@@ -96,6 +97,11 @@ pub fn run(args: Args) -> Result<()> {
         std::fs::create_dir(dir)
             .with_context(|| format!("cannot create directory {}", dir.display()))?;
     }
+    // Slicing and the ground-truth volumes take a minute per shape on a loaded machine.
+    let progress = Progress::new(
+        "writing the slices and ground truth: shape",
+        shapes.len() as u64,
+    );
     for shape in shapes {
         // Deleted with its contents unless renamed away (any error, or a panic).
         let tmp = tempfile::Builder::new()
@@ -111,6 +117,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         std::fs::rename(tmp.path().join(shape.name()), &target)
             .with_context(|| format!("cannot rename the data set to {}", target.display()))?;
+        progress.inc();
         for f in files {
             let moved = |p: &std::path::Path| target.join(p.file_name().unwrap_or_default());
             println!(
@@ -121,5 +128,6 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
+    progress.finish();
     Ok(())
 }

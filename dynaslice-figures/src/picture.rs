@@ -4,14 +4,18 @@
 //!
 //! Each panel has mm tick labels (world x, y or z where the plane's axis is one of them, else
 //! mm along the plane's own axis), a scale bar, and the anatomical directions (R/L, A/P, S/I of
-//! our RAS world) at its sides; the heading names the plane by orientation and position
-//! ([`plane_name`]). The legend wraps into as many columns and rows as it needs.
+//! our RAS world), all outside the picture of the data: the u directions at the ends of the
+//! axis caption, the v directions beside the panel's top and bottom right corners, the scale
+//! bar below the caption. The heading names the plane by orientation and position
+//! ([`plane_name`]). Only the model's classes are drawn (fills, contours of the input classes
+//! matched to them by [`match_classes`], legend); the legend wraps into as many columns and
+//! rows as it needs.
 
 use crate::color::{class_color, lighten};
 use crate::legend::{self, Item};
 use anyhow::{anyhow, Result};
 use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
-use dynaslice_data::{Plane, Sequence};
+use dynaslice_data::{ClassInfo, Plane};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -150,11 +154,25 @@ fn ticks(axis: &AxisScale, lo: f64, hi: f64, target: f64) -> Vec<(f64, String)> 
         .collect()
 }
 
+/// For each input class, the model channel it is drawn as: the model class of the same name
+/// (ignoring case and surrounding blanks), else `None` (not drawn: the model was trained
+/// without it, e.g. on `--labels 1,2,3` of a 41-label map).
+pub fn match_classes(model: &[ClassInfo], input: &[ClassInfo]) -> Vec<Option<usize>> {
+    let key = |c: &ClassInfo| c.name.trim().to_lowercase();
+    input
+        .iter()
+        .map(|i| model.iter().position(|m| key(m) == key(i)))
+        .collect()
+}
+
 /// Renders `panels` of `model`'s labels over `plane`'s region of interest into a PNG, written
-/// atomically.
+/// atomically. `classes` are the model's (one per channel, with the colours to draw them in);
+/// `drawn_as[c]` is the channel input class `c`'s contours are drawn as ([`match_classes`];
+/// `None`: not drawn).
 pub fn plane_labels(
     model: &Model,
-    sequence: &Sequence,
+    classes: &[ClassInfo],
+    drawn_as: &[Option<usize>],
     plane: &Plane,
     panels: &[Panel],
     path: &Path,
@@ -182,12 +200,13 @@ pub fn plane_labels(
         (((PANEL as f64 * w / h) as u32).clamp(1, PANEL), PANEL)
     };
 
-    // Layout: heading; per panel a left gutter for the v ticks, its title, the picture, and
-    // a bottom gutter for the u ticks and caption; the legend below, wrapped to the width.
-    let (margin, heading_h, title_h, left, bottom) = (10u32, 34u32, 26u32, 64u32, 50u32);
-    let column = left + pw + margin;
+    // Layout: heading; per panel a left gutter for the v ticks, its title, the picture, a
+    // right gutter for the v directions, and a bottom gutter for the u ticks, the caption with
+    // the u directions at its ends, and the scale bar; the legend below, wrapped to the width.
+    let (margin, heading_h, title_h, left, right, bottom) =
+        (10u32, 34u32, 26u32, 64u32, 30u32, 78u32);
+    let column = left + pw + right;
     let width = margin + column * panels.len() as u32;
-    let classes = sequence.classes();
     let mut items: Vec<Item> = classes
         .iter()
         .enumerate()
@@ -271,7 +290,10 @@ pub fn plane_labels(
             )))?;
             if let Some(p) = panel.contours {
                 for a in &p.annotations {
-                    let colour = class_color(a.class, classes.get(a.class).and_then(|c| c.color));
+                    let Some(k) = drawn_as.get(a.class).copied().flatten() else {
+                        continue;
+                    };
+                    let colour = class_color(k, classes.get(k).and_then(|c| c.color));
                     for poly in &a.polygons {
                         let mut line: Vec<(i32, i32)> = poly.iter().map(|&q| to_px(q)).collect();
                         line.extend(line.first().copied());
@@ -312,49 +334,34 @@ pub fn plane_labels(
                 small.clone().transform(FontTransform::Rotate270),
             )))?;
 
-            // Anatomical directions at the sides: +u right, +v up.
-            let u = plane.u;
-            let v = plane.v;
+            // Anatomical directions, off the data: −u and +u at the ends of the u caption's
+            // row, +v and −v in the right gutter beside the top and bottom corners.
             let neg = |a: [f64; 3]| a.map(|c| -c);
-            let mid = (x0 + pw as i32 / 2, top + ph as i32 / 2);
-            for (letters, (x, y)) in [
-                (direction_letters(u), (x1 - 4, mid.1)),
-                (direction_letters(neg(u)), (x0 + 4, mid.1)),
-                (direction_letters(v), (mid.0, top + 4)),
-                (direction_letters(neg(v)), (mid.0, y1 - 4)),
+            let letters_font = ("sans-serif", 16);
+            let (u_plus, u_minus) = (direction_letters(plane.u), direction_letters(neg(plane.u)));
+            let (v_plus, v_minus) = (direction_letters(plane.v), direction_letters(neg(plane.v)));
+            let caption_y = y1 + 26;
+            let uw = legend::text_width(&u_plus, 16) as i32;
+            for (letters, at) in [
+                (u_minus, (x0, caption_y)),
+                (u_plus, (x1 - uw, caption_y)),
+                (v_plus, (x1 + 6, top)),
+                (v_minus, (x1 + 6, y1 - 16)),
             ] {
-                let tw = legend::text_width(&letters, 16) as i32;
-                let (bx, by) = match (x, y) {
-                    (x, _) if x == x1 - 4 => (x - tw - 4, y - 10),
-                    (x, _) if x == x0 + 4 => (x, y - 10),
-                    (_, y) if y == top + 4 => (x - tw / 2 - 2, y),
-                    _ => (x - tw / 2 - 2, y - 20),
-                };
-                d(root.draw(&Rectangle::new(
-                    [(bx, by), (bx + tw + 4, by + 20)],
-                    WHITE.mix(0.8).filled(),
-                )))?;
-                d(root.draw(&Text::new(letters, (bx + 2, by + 2), ("sans-serif", 16))))?;
+                d(root.draw(&Text::new(letters, at, letters_font)))?;
             }
 
-            // Scale bar, bottom right: a nice length of about a fifth of the panel.
+            // Scale bar, below the caption at the right: a nice length of about a fifth of the
+            // panel, its length written to its left.
             let mm_per_px = w / pw as f64;
             let length = nice_step(0.2 * w, 1.0);
             let bar_px = (length / mm_per_px).round() as i32;
-            let (bx1, by) = (x1 - 12, y1 - 30);
+            let (bx1, by) = (x1, y1 + 54);
             let bx0 = bx1 - bar_px;
             let label = format!("{length} mm");
             let tw = legend::text_width(&label, 14) as i32;
-            d(root.draw(&Rectangle::new(
-                [(bx0.min(bx1 - tw) - 4, by - 22), (bx1 + 4, by + 8)],
-                WHITE.mix(0.8).filled(),
-            )))?;
             d(root.draw(&Rectangle::new([(bx0, by), (bx1, by + 4)], BLACK.filled())))?;
-            d(root.draw(&Text::new(
-                label,
-                ((bx0 + bx1) / 2 - tw / 2, by - 19),
-                small.clone(),
-            )))?;
+            d(root.draw(&Text::new(label, (bx0 - tw - 6, by - 5), small.clone())))?;
         }
         // Legend: filled = predicted label, line = input contour.
         d(legend::draw(

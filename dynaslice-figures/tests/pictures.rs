@@ -5,10 +5,11 @@
 use dynaslice_core::Model;
 use dynaslice_data::{Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 use dynaslice_figures::class_color;
-use dynaslice_figures::picture::{plane_labels, Panel};
+use dynaslice_figures::picture::{match_classes, plane_labels, Panel};
 use dynaslice_figures::render3d::{render_surfaces, RenderOptions, SurfacePanel};
 use dynaslice_mesh::{extract, Options};
 use dynaslice_test_support::spheres::{self, Sphere};
+use plotters::style::RGBColor;
 
 const CLASSES: usize = 41;
 
@@ -106,7 +107,9 @@ fn slice_picture_colours_classes_and_fits_a_41_class_legend() {
             contours: None,
         },
     ];
-    plane_labels(&model, &sequence, &plane, &panels, &path).unwrap();
+    let drawn_as = match_classes(&classes(), sequence.classes());
+    assert_eq!(drawn_as, (0..CLASSES).map(Some).collect::<Vec<_>>());
+    plane_labels(&model, &classes(), &drawn_as, &plane, &panels, &path).unwrap();
     let img = image::open(&path).unwrap().to_rgb8();
     // Two 480-pixel panels side by side; the legend's 41 entries in several columns below.
     assert!(
@@ -129,6 +132,83 @@ fn slice_picture_colours_classes_and_fits_a_41_class_legend() {
     // white margin.
     let last = img.height() - 1;
     assert!((0..img.width()).all(|x| img.get_pixel(x, last).0 == [255, 255, 255]));
+}
+
+/// A model of one class pictured on a plane of a 41-class input: only its class is drawn (fill,
+/// contour, a one-entry legend), and the direction letters and scale bar sit outside the data.
+#[test]
+fn slice_picture_draws_only_the_models_classes_and_annotates_off_the_data() {
+    let ball = spheres::model(
+        &[Sphere::new([0.0; 3], 0.5, 0.1)],
+        &[("structure number 0", 1)],
+    );
+    let model = Model::from_bytes(&ball).unwrap();
+    let model_classes = vec![ClassInfo {
+        name: "Structure Number 0 ".into(),
+        label: 1,
+        color: Some([200, 40, 40]),
+    }];
+    let square = |x: f64| vec![[x, -5.0], [x + 4.0, -5.0], [x + 4.0, -1.0], [x, -1.0]];
+    // Class 0 matches the model's class (by name, ignoring case and blanks); 1 to 40 do not.
+    let plane = Plane {
+        origin: [0.0, 0.0, 2.0],
+        u: [1.0, 0.0, 0.0],
+        v: [0.0, 1.0, 0.0],
+        roi: Rect {
+            min: [-10.0, -25.0],
+            max: [30.0, 15.0],
+        },
+        annotations: (0..CLASSES)
+            .map(|k| Annotation {
+                class: k,
+                polygons: vec![square(-9.0 + k as f64 * 0.9)],
+            })
+            .collect(),
+    };
+    let input = classes();
+    let drawn_as = match_classes(&model_classes, &input);
+    assert_eq!(drawn_as[0], Some(0));
+    assert!(drawn_as[1..].iter().all(Option::is_none));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.png");
+    let panels = [Panel {
+        time: 0.0,
+        title: "t = 0".into(),
+        contours: Some(&plane),
+    }];
+    plane_labels(&model, &model_classes, &drawn_as, &plane, &panels, &path).unwrap();
+    let img = image::open(&path).unwrap().to_rgb8();
+    let count = |c: RGBColor| img.pixels().filter(|p| p.0 == [c.0, c.1, c.2]).count();
+    // No other class's contour or swatch anywhere.
+    for k in [1, 2, 20, CLASSES - 1] {
+        assert_eq!(count(class_color(k, None)), 0, "class {k}'s contour drawn");
+    }
+    // One legend row: the picture is the panel, its gutters and one row, not 41 entries.
+    assert!(
+        img.height() < 480 + 34 + 26 + 78 + 2 * 22 + 30,
+        "{}",
+        img.height()
+    );
+    // Inside the data (the panel less its frame) nothing is drawn in black or grey: no
+    // letters, no scale bar.
+    let (x0, top) = (10 + 64, 34 + 26);
+    let dark = (x0 + 2..x0 + 478)
+        .flat_map(|x| (top + 2..top + 478).map(move |y| (x, y)))
+        .filter(|&(x, y)| {
+            let p = img.get_pixel(x, y).0;
+            p.iter().all(|&c| c < 160) && p[0].abs_diff(p[1]) < 30 && p[1].abs_diff(p[2]) < 30
+        })
+        .count();
+    assert_eq!(dark, 0, "text or a scale bar on the data");
+    // Beside the data: the letters R, L, A, P and the scale bar are drawn (dark pixels).
+    let dark_right = (x0 + 482..x0 + 480 + 28)
+        .flat_map(|x| (top..top + 480).map(move |y| (x, y)))
+        .filter(|&(x, y)| img.get_pixel(x, y).0.iter().all(|&c| c < 100))
+        .count();
+    assert!(
+        dark_right > 20,
+        "{dark_right}: no A/P letters beside the panel"
+    );
 }
 
 #[test]

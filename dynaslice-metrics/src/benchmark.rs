@@ -56,6 +56,17 @@ impl Truth {
     /// Meshes and samples `shape` at the benchmark's frames; `annotated` marks the frames
     /// models are trained on.
     pub fn new(shape: Shape, annotated: &[usize], resolution: Resolution) -> Result<Truth> {
+        Truth::new_with(shape, annotated, resolution, |_| {})
+    }
+
+    /// [`Truth::new`], calling `progress` with the number of frames done after each (the
+    /// meshing at the truth resolution is the slow part: minutes at 192³).
+    pub fn new_with(
+        shape: Shape,
+        annotated: &[usize],
+        resolution: Resolution,
+        mut progress: impl FnMut(usize),
+    ) -> Result<Truth> {
         anyhow::ensure!(
             resolution.iou >= 1 && resolution.samples >= 1,
             "the IoU grid needs at least 1 cell per axis and the Chamfer distance at least 1 \
@@ -71,11 +82,13 @@ impl Truth {
             .enumerate()
             .map(|(f, &t)| {
                 let meshes = truth_meshes(shape, t, resolution.truth)?;
-                Ok(meshes
+                let samples = meshes
                     .iter()
                     .enumerate()
                     .map(|(c, m)| chamfer::samples(m, resolution.samples, seed(f, c, k, 1)))
-                    .collect())
+                    .collect();
+                progress(f + 1);
+                Ok(samples)
             })
             .collect::<Result<_>>()?;
         Ok(Truth {
@@ -94,6 +107,11 @@ impl Truth {
 
     /// IoU and CD×10⁴ of `model` at every frame and class.
     pub fn score(&self, model: &Model) -> Result<Scores> {
+        self.score_with(model, |_| {})
+    }
+
+    /// [`Truth::score`], calling `progress` with the number of frames scored after each.
+    pub fn score_with(&self, model: &Model, mut progress: impl FnMut(usize)) -> Result<Scores> {
         let shape = self.shape;
         let k = shape.class_names().len();
         if model.num_classes() != k {
@@ -124,6 +142,7 @@ impl Truth {
                     })
                     .collect(),
             );
+            progress(f + 1);
         }
         let table = |values| FrameTable {
             times: self.times.clone(),

@@ -8,11 +8,13 @@
 //! - [`volume`]: each class's volume over time.
 //! - [`itv`]: the internal target volume, a class's union over a cycle, as a mask and a mesh.
 //! - [`motion`]: per class over a cycle: volumes, centroids, amplitudes, ejection fraction.
+//! - [`extent`]: classes whose extent or volume the data does not support (spurious structure).
 
 #![warn(missing_docs)]
 
 pub mod benchmark;
 pub mod chamfer;
+pub mod extent;
 pub mod heldout;
 pub mod inside;
 pub mod iou;

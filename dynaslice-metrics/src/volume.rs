@@ -60,13 +60,26 @@ pub fn class_shapes(model: &Model, t: f64, resolution: u32) -> Result<Vec<ClassS
 /// The volume of every class of `model` at each of `times`, from meshes with `resolution`
 /// cells along the longest axis of its domain ([`class_shapes`]).
 pub fn volume_curve(model: &Model, times: &[f64], resolution: u32) -> Result<VolumeCurve> {
+    volume_curve_with(model, times, resolution, |_| {})
+}
+
+/// [`volume_curve`], calling `progress` with the number of times done after each.
+pub fn volume_curve_with(
+    model: &Model,
+    times: &[f64],
+    resolution: u32,
+    mut progress: impl FnMut(usize),
+) -> Result<VolumeCurve> {
     let volumes = times
         .iter()
-        .map(|&t| {
-            Ok(class_shapes(model, t, resolution)?
+        .enumerate()
+        .map(|(i, &t)| {
+            let v = class_shapes(model, t, resolution)?
                 .iter()
                 .map(|s| s.volume)
-                .collect())
+                .collect();
+            progress(i + 1);
+            Ok(v)
         })
         .collect::<Result<_>>()?;
     Ok(VolumeCurve {

@@ -1,0 +1,81 @@
+//! `dynaslice info`'s extent check on a hand-built model of one ball (radius 10 mm at world
+//! (10, −5, 2), `dynaslice_test_support::spheres`): quiet against contours that span the ball,
+//! a warning naming the class and the overshoot against contours that span a small part of it,
+//! and against the domain alone when no input is given.
+
+use dynaslice_test_support::fixtures::succeeded;
+use dynaslice_test_support::spheres::{self, Sphere};
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn run(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_dynaslice"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+/// A native JSON input of one class "ball": on each axial plane at height `z`, a square of
+/// half-side `r` mm around (10, −5).
+fn write_input(path: &Path, planes: &[(f64, f64)]) {
+    let planes: Vec<String> = planes
+        .iter()
+        .map(|&(z, r)| {
+            let (x0, x1, y0, y1) = (10.0 - r, 10.0 + r, -5.0 - r, -5.0 + r);
+            format!(
+                r#"{{"origin": [0.0, 0.0, {z}], "u": [1.0, 0.0, 0.0], "v": [0.0, 1.0, 0.0],
+                "roi": {{"min": [-10.0, -25.0], "max": [30.0, 15.0]}},
+                "annotations": [{{"class": 0, "polygons": [[[{x0}, {y0}], [{x1}, {y0}],
+                [{x1}, {y1}], [{x0}, {y1}]]]}}]}}"#
+            )
+        })
+        .collect();
+    let doc = format!(
+        r#"{{"format": "dynaslice-sections", "version": 1,
+          "classes": [{{"name": "ball", "label": 1}}],
+          "frames": [{{"time": 0.0, "planes": [{}]}}]}}"#,
+        planes.join(", ")
+    );
+    std::fs::write(path, doc).unwrap();
+}
+
+#[test]
+fn info_warns_of_a_class_far_past_its_contours() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let bytes = spheres::model(&[Sphere::new([0.0; 3], 0.5, 0.0)], &[("ball", 1)]);
+    std::fs::write(d.join("ball.dsm"), bytes).unwrap();
+    // Contours spanning the ball (z −8 to 12, 20 mm squares): no warning.
+    write_input(
+        &d.join("fits.json"),
+        &[(-8.0, 10.0), (2.0, 10.0), (12.0, 10.0)],
+    );
+    let out = run(d, &["info", "ball.dsm", "fits.json"]);
+    let stdout = succeeded(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("warning"), "{stderr}");
+    assert!(
+        stdout.contains("against their contours in fits.json") && stdout.contains("within them"),
+        "{stdout}"
+    );
+    // One 2 mm square at the centre: the 20 mm ball reaches about 9 mm past a box whose
+    // longest side is 2 mm.
+    write_input(&d.join("small.json"), &[(2.0, 1.0)]);
+    let out = run(d, &["info", "ball.dsm", "small.json"]);
+    let stdout = succeeded(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("warning: ball.dsm: class 1 \"ball\": its surface reaches")
+            && stderr.contains("past its contours' extent"),
+        "{stderr}"
+    );
+    assert!(stdout.contains("1 warning(s)"), "{stdout}");
+    // Without the input: the domain only, and the ball is well inside it.
+    let out = run(d, &["info", "ball.dsm"]);
+    let stdout = succeeded(&out);
+    assert!(
+        stdout.contains("the model's domain only") && stdout.contains("within them"),
+        "{stdout}"
+    );
+}
