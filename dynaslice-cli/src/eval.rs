@@ -86,6 +86,9 @@ struct SyntheticArgs {
     /// Per-frame CSV (IoU and CD×10⁴ per class).
     #[arg(long)]
     csv: Option<PathBuf>,
+    /// Replace an existing --csv file.
+    #[arg(long)]
+    force: bool,
     #[command(flatten)]
     memory: MemoryArgs,
 }
@@ -174,6 +177,9 @@ struct VolumeArgs {
     /// Output CSV (.csv); the chart is written beside it as .png.
     #[arg(short, long)]
     output: PathBuf,
+    /// Replace existing files (the CSV and its chart).
+    #[arg(long)]
+    force: bool,
 }
 
 /// Runs `dynaslice eval`: one accuracy measure or the volume curve, printed as a table.
@@ -192,8 +198,9 @@ fn fmt(v: Option<f64>, digits: usize) -> String {
 }
 
 fn synthetic(a: SyntheticArgs) -> Result<()> {
+    let mut plan = Plan::new([&a.model], a.force);
     if let Some(csv) = &a.csv {
-        Plan::new([&a.model], true).file("--csv", csv, Kind::Csv)?;
+        plan.file("--csv", csv, Kind::Csv)?;
     }
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
@@ -377,7 +384,8 @@ fn held_out(a: HeldoutArgs) -> Result<()> {
 
 fn split(a: SplitArgs) -> Result<()> {
     let inputs = a.input.inputs.iter().chain(&a.input.label_names);
-    Plan::new(inputs, a.force).file("-o", &a.output, Kind::TrainingInput)?;
+    let mut plan = Plan::new(inputs, a.force);
+    plan.file("-o", &a.output, Kind::TrainingInput)?;
     let seq = input::read(&a.input)?;
     let train = a
         .holdout
@@ -403,7 +411,7 @@ fn split(a: SplitArgs) -> Result<()> {
 
 fn volume(a: VolumeArgs) -> Result<()> {
     let png = a.output.with_extension("png");
-    let mut plan = Plan::new([&a.model], true);
+    let mut plan = Plan::new([&a.model], a.force);
     plan.file("-o", &a.output, Kind::Csv)?;
     plan.beside(&png)?;
     let file = ModelFile::open(&a.model)?;

@@ -154,14 +154,6 @@ pub fn run(a: Args) -> Result<()> {
     let files = output_files(&a.output, frames, true);
     for path in files.iter().filter(|p| **p != a.output) {
         plan.beside(path)?;
-        if !a.force && path.exists() {
-            bail!(
-                "{}: the file exists (it is written with the label volume {}); add --force to \
-                 replace it",
-                path.display(),
-                a.output.display()
-            );
-        }
     }
     let options = WriteOptions {
         evaluation,

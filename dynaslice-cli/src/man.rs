@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use clap::CommandFactory;
 use dynaslice_data::atomic::write_atomically;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `dynaslice man`.
 #[derive(clap::Args, Debug)]
@@ -19,6 +19,9 @@ pub struct Args {
     /// dynaslice-eval-synthetic.1, …); without it, dynaslice.1 goes to standard output.
     #[arg(short, long, value_name = "DIR")]
     output: Option<PathBuf>,
+    /// Replace existing pages in DIR.
+    #[arg(long, requires = "output")]
+    force: bool,
 }
 
 /// Runs `dynaslice man`.
@@ -32,23 +35,31 @@ pub fn run(a: Args) -> Result<()> {
         std::io::stdout().write_all(&page)?;
         return Ok(());
     };
-    Plan::new(std::iter::empty::<PathBuf>(), true).directory("-o", &dir)?;
+    let mut plan = Plan::new(std::iter::empty::<PathBuf>(), a.force);
+    plan.directory("-o", &dir)?;
+    let mut pages = Vec::new();
+    render_pages(cmd, &mut pages)?;
+    // Every page checked (none replaced without --force) before any is written.
+    for (name, _) in &pages {
+        plan.beside(&dir.join(name))?;
+    }
     std::fs::create_dir_all(&dir)
         .with_context(|| format!("cannot create directory {}", dir.display()))?;
-    let written = write_pages(cmd, &dir)?;
-    eprintln!("wrote {written} pages to {}", dir.display());
+    for (name, page) in &pages {
+        write_atomically(&dir.join(name), page)?;
+    }
+    eprintln!("wrote {} pages to {}", pages.len(), dir.display());
     Ok(())
 }
 
-/// Writes the page of `cmd` and of each of its subcommands, each atomically; returns the count.
-fn write_pages(cmd: clap::Command, dir: &Path) -> Result<usize> {
-    let mut written = 0;
+/// The file name and page of `cmd` and of each of its subcommands.
+fn render_pages(cmd: clap::Command, pages: &mut Vec<(String, Vec<u8>)>) -> Result<()> {
     for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
-        written += write_pages(sub.clone(), dir)?;
+        render_pages(sub.clone(), pages)?;
     }
     let man = clap_mangen::Man::new(cmd);
     let mut page = Vec::new();
     man.render(&mut page)?;
-    write_atomically(&dir.join(man.get_filename()), &page)?;
-    Ok(written + 1)
+    pages.push((man.get_filename(), page));
+    Ok(())
 }

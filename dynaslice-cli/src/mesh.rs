@@ -56,6 +56,9 @@ pub struct Args {
     /// Output: a .ply, .obj, .stl or .vtp file with --time, a directory with --times.
     #[arg(short, long, value_name = "OUT")]
     output: PathBuf,
+    /// Replace existing files (the mesh, the per-class meshes beside it, a series' files).
+    #[arg(long)]
+    force: bool,
     /// File format of a series (ply, obj, stl, vtp); a single file takes its extension's.
     #[arg(long, default_value = "vtp", value_parser = parse_format)]
     format: Format,
@@ -135,7 +138,7 @@ pub fn run(args: Args) -> Result<()> {
 
 fn mesh_all(args: &Args) -> Result<()> {
     let series = args.times.is_some();
-    let mut plan = Plan::new([&args.model], true);
+    let mut plan = Plan::new([&args.model], args.force);
     if series {
         plan.directory("-o", &args.output)?;
     } else {
@@ -200,11 +203,18 @@ fn mesh_all(args: &Args) -> Result<()> {
     } else {
         MeshFiles::single(&args.output, classes.len(), space)?
     };
-    if !series && classes.len() > 1 {
-        // The per-class files beside -o: none may be the model.
+    // Every file the run writes (the per-class files beside -o, a series' meshes and
+    // collection), checked before any work.
+    for i in 0..times.len() {
         for &k in &classes {
-            plan.beside(&files.path(0, k, &names[k]))?;
+            let path = files.path(i, k, &names[k]);
+            if path != args.output {
+                plan.beside(&path)?;
+            }
         }
+    }
+    if let Some(collection) = files.collection() {
+        plan.beside(&collection)?;
     }
 
     let progress = Progress::new("meshing: time", times.len() as u64);

@@ -2,23 +2,28 @@
 //! written, the parent folder exists, never a directory where a file goes (nor a file where a
 //! directory goes), never one of the run's inputs (by file identity, so `./a.json`, a symlink or
 //! a hard link to an input are caught too), never the same path twice in one run, and never an
-//! existing model, training input or label volume unless `--force`. Then
-//! [`dynaslice_data::atomic::write_via`] writes a library's output under a temporary name and
-//! renames it into place, so a failed run leaves neither a partial file nor a damaged old one.
+//! existing file (a symlink, dangling or not, counts) unless `--force`: the main output, every
+//! file written beside it and every file of an output directory alike. Each output is claimed
+//! for the run ([`dynaslice_data::atomic::claim`]) before it is checked, so a second run on the
+//! same output refuses at once and what is on disk always comes from one run; the claim also
+//! removes the temporaries of killed runs. Then [`dynaslice_data::atomic::write_via`] writes a
+//! library's output under a temporary name and renames it into place, so a failed run leaves
+//! neither a partial file nor a damaged old one.
 
 use anyhow::{bail, Context, Result};
+use dynaslice_data::atomic::{self, Claim};
+use std::collections::HashSet;
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 
-/// What a file output holds: its allowed extensions and whether it may replace a file.
+/// What a file output holds: its allowed extensions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
-    /// A model (`.dsm`); replacing one needs `--force`.
+    /// A model (`.dsm`).
     Model,
-    /// Cross-sections for training (native JSON); replacing one needs `--force`.
+    /// Cross-sections for training (native JSON).
     TrainingInput,
-    /// A label volume (`.nii`, `.nii.gz`, or 3D Slicer's `.seg.nrrd`); replacing one needs
-    /// `--force`.
+    /// A label volume (`.nii`, `.nii.gz`, or 3D Slicer's `.seg.nrrd`).
     LabelVolume,
     /// A table (`.csv`).
     Csv,
@@ -54,11 +59,6 @@ impl Kind {
             Kind::Html => "web page",
         }
     }
-
-    /// Data a run may have taken hours to make: never replaced without `--force`.
-    fn precious(self) -> bool {
-        matches!(self, Kind::Model | Kind::TrainingInput | Kind::LabelVolume)
-    }
 }
 
 /// Extensions of files this tool reads or writes: a series directory named like one is
@@ -68,25 +68,31 @@ const FILE_EXTENSIONS: [&str; 14] = [
     "ckpt",
 ];
 
-/// The outputs of one run, checked against its inputs and each other.
+/// The outputs of one run, checked against its inputs and each other, and claimed for the run:
+/// keep the plan until every output is written (dropping it releases the claims).
 #[derive(Debug)]
 pub struct Plan {
     inputs: Vec<PathBuf>,
-    outputs: Vec<PathBuf>,
+    outputs: HashSet<PathBuf>,
     force: bool,
+    /// The claims on the outputs; a file inside a claimed directory output is covered by the
+    /// directory's.
+    claims: Vec<Claim>,
+    directories: Vec<PathBuf>,
 }
 
 impl Plan {
-    /// A run reading `inputs`; `force`: existing models, training inputs and label volumes may
-    /// be replaced.
+    /// A run reading `inputs`; `force`: existing files may be replaced.
     pub fn new<P: AsRef<Path>>(inputs: impl IntoIterator<Item = P>, force: bool) -> Plan {
         Plan {
             inputs: inputs
                 .into_iter()
                 .map(|p| p.as_ref().to_path_buf())
                 .collect(),
-            outputs: Vec::new(),
+            outputs: HashSet::new(),
             force,
+            claims: Vec::new(),
+            directories: Vec::new(),
         }
     }
 
@@ -107,20 +113,26 @@ impl Plan {
             );
         }
         self.check_file(option, path)?;
-        if kind.precious() && !self.force && path.exists() {
-            bail!(
-                "{option} {}: the file exists (a {}); add --force to replace it",
-                path.display(),
-                kind.what()
-            );
-        }
-        Ok(())
+        self.claim(path)?;
+        self.not_existing(option, path, &format!("a {}", kind.what()))
     }
 
-    /// Checks a file written beside the main output (a loss log, a chart, a checkpoint): any
-    /// name, the same checks otherwise; an existing one is replaced.
+    /// Checks a file written beside the main output or inside an output directory (a colour
+    /// table, a chart, a checkpoint, a series' mesh): any name, the same checks, claim and
+    /// overwrite rule otherwise.
     pub fn beside(&mut self, path: &Path) -> Result<()> {
-        self.check_file("the output", path)
+        self.check_file("the output", path)?;
+        self.claim(path)?;
+        self.not_existing("the output", path, "one of this command's outputs")
+    }
+
+    /// Checks a file the run continues when it exists (a resumed checkpoint, an appended
+    /// journal): as [`Plan::beside`], except that an existing one is expected.
+    // For train.rs's checkpoint and journal, whose rewrite calls it.
+    #[allow(dead_code)]
+    pub fn continued(&mut self, path: &Path) -> Result<()> {
+        self.check_file("the output", path)?;
+        self.claim(path)
     }
 
     /// Checks the directory output `path` of `option`: not named like a file, not an existing
@@ -140,8 +152,56 @@ impl Plan {
         }
         parent_exists(option, path)?;
         self.not_an_input(option, path)?;
-        self.outputs.push(absolute(path));
+        self.claim(path)?;
+        self.outputs.insert(absolute(path));
+        self.directories.push(absolute(path));
         Ok(())
+    }
+
+    /// Claims `path` for this run, unless a claimed directory output holds it; reports the
+    /// killed runs' temporaries the claim removed.
+    fn claim(&mut self, path: &Path) -> Result<()> {
+        let stale = if self.in_directory(path) {
+            atomic::remove_stale_temporaries(path)?
+        } else {
+            let claim = atomic::claim(path)?;
+            let stale = claim.stale_removed().to_vec();
+            self.claims.push(claim);
+            stale
+        };
+        for file in stale {
+            eprintln!(
+                "removed {}: a temporary file of a run that did not finish",
+                file.display()
+            );
+        }
+        Ok(())
+    }
+
+    /// Whether `path` is a file of a directory output of this plan.
+    fn in_directory(&self, path: &Path) -> bool {
+        absolute(path)
+            .parent()
+            .is_some_and(|dir| self.directories.iter().any(|d| d == dir))
+    }
+
+    /// An error unless `path` is free or `--force` was given; `what` says what it is.
+    fn not_existing(&self, option: &str, path: &Path, what: &str) -> Result<()> {
+        let Ok(meta) = std::fs::symlink_metadata(path) else {
+            return Ok(());
+        };
+        if self.force {
+            return Ok(());
+        }
+        let link = if meta.file_type().is_symlink() {
+            " as a symbolic link"
+        } else {
+            ""
+        };
+        bail!(
+            "{option} {}: the file exists{link} ({what}); add --force to replace it",
+            path.display()
+        )
     }
 
     fn check_file(&mut self, option: &str, path: &Path) -> Result<()> {
@@ -157,7 +217,10 @@ impl Plan {
                 bail!("{option} {}: not a regular file", path.display());
             }
         }
-        parent_exists(option, path)?;
+        // A directory output is created by its writer: its files' folder may not exist yet.
+        if !self.in_directory(path) {
+            parent_exists(option, path)?;
+        }
         self.not_an_input(option, path)?;
         let abs = absolute(path);
         if self.outputs.contains(&abs) {
@@ -166,7 +229,7 @@ impl Plan {
                 path.display()
             );
         }
-        self.outputs.push(abs);
+        self.outputs.insert(abs);
         Ok(())
     }
 
@@ -234,7 +297,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn refuses_inputs_wrong_extensions_and_existing_models() {
+    fn refuses_inputs_wrong_extensions_existing_files_and_claimed_outputs() {
         let dir = tempfile::tempdir().unwrap();
         let input = dir.path().join("in.json");
         std::fs::write(&input, "x").unwrap();
@@ -253,13 +316,47 @@ mod tests {
         std::fs::write(&model, "x").unwrap();
         let e = plan.file("-o", &model, Kind::Model).unwrap_err();
         assert!(e.to_string().contains("--force"), "{e}");
-        assert!(Plan::new([&input], true)
-            .file("-o", &model, Kind::Model)
-            .is_ok());
         let e = plan.directory("-o", &dir.path().join("a.vtp")).unwrap_err();
         assert!(e.to_string().contains("looks like a file"), "{e}");
         let csv = dir.path().join("v.csv");
         plan.file("-o", &csv, Kind::Csv).unwrap();
         assert!(plan.beside(&csv).unwrap_err().to_string().contains("twice"));
+        // The plan holds its outputs: another run's plan is refused until this one ends.
+        let e = Plan::new([&input], true)
+            .file("-o", &csv, Kind::Csv)
+            .unwrap_err();
+        assert!(e.to_string().contains("is writing this output"), "{e}");
+        drop(plan);
+        let mut forced = Plan::new([&input], true);
+        forced.file("-o", &model, Kind::Model).unwrap();
+        forced.file("-o", &csv, Kind::Csv).unwrap();
+    }
+
+    #[test]
+    fn every_existing_output_needs_force_links_included() {
+        let dir = tempfile::tempdir().unwrap();
+        let png = dir.path().join("p.png");
+        std::fs::write(&png, "x").unwrap();
+        let dangling = dir.path().join("d.ply");
+        std::os::unix::fs::symlink(dir.path().join("nowhere"), &dangling).unwrap();
+        let series = dir.path().join("series");
+        std::fs::create_dir(&series).unwrap();
+        let pvd = series.join("series.pvd");
+        std::fs::write(&pvd, "x").unwrap();
+        let mut plan = Plan::new(std::iter::empty::<PathBuf>(), false);
+        let e = plan.file("-o", &png, Kind::Png).unwrap_err();
+        assert!(e.to_string().contains("add --force"), "{e}");
+        let e = plan.beside(&dangling).unwrap_err();
+        assert!(e.to_string().contains("as a symbolic link"), "{e}");
+        plan.directory("-o", &series).unwrap();
+        let e = plan.beside(&pvd).unwrap_err();
+        assert!(e.to_string().contains("series.pvd"), "{e}");
+        drop(plan);
+        // Files of a directory output not created yet are checked without their folder.
+        let mut plan = Plan::new(std::iter::empty::<PathBuf>(), true);
+        let fresh = dir.path().join("fresh");
+        plan.directory("-o", &fresh).unwrap();
+        plan.beside(&fresh.join("class1_a_t0000.vtp")).unwrap();
+        plan.beside(&dangling).unwrap();
     }
 }

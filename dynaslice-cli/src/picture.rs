@@ -48,6 +48,9 @@ pub struct Args {
     /// Output picture (.png).
     #[arg(short, long)]
     output: PathBuf,
+    /// Replace an existing picture.
+    #[arg(long)]
+    force: bool,
     /// Draw the model's class surfaces in 3D (shaded, one panel per time) instead of labels on
     /// an input plane; takes no INPUT.
     #[arg(long = "3d", id = "three_d")]
@@ -137,7 +140,8 @@ impl View {
 /// Runs `dynaslice picture --3d`: every class of the model meshed at each time (the mesh
 /// command's extraction) and rendered shaded, one panel per time, with a legend.
 fn run_3d(a: Args) -> Result<()> {
-    Plan::new([&a.model], true).file("-o", &a.output, Kind::Png)?;
+    let mut plan = Plan::new([&a.model], a.force);
+    plan.file("-o", &a.output, Kind::Png)?;
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
     let times: Vec<f32> = match &a.times {
@@ -210,7 +214,8 @@ pub fn run(a: Args) -> Result<()> {
         .into_iter()
         .chain(&a.input.inputs)
         .chain(&a.input.label_names);
-    Plan::new(inputs, true).file("-o", &a.output, Kind::Png)?;
+    let mut plan = Plan::new(inputs, a.force);
+    plan.file("-o", &a.output, Kind::Png)?;
     if a.times.as_ref().is_some_and(|t| t.len() > MAX_PANELS) {
         bail!("--times: at most {MAX_PANELS} extra times fit one picture");
     }

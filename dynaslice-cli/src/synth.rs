@@ -65,7 +65,9 @@ pub fn run(args: Args) -> Result<()> {
         vec![args.shape.parse().map_err(anyhow::Error::msg)?]
     };
     let dir = &args.output;
-    Plan::new(std::iter::empty::<PathBuf>(), args.force).directory("-o", dir)?;
+    // Held until the data sets are in place: a second run on DIR refuses.
+    let mut plan = Plan::new(std::iter::empty::<PathBuf>(), args.force);
+    plan.directory("-o", dir)?;
     for shape in &shapes {
         let target = dir.join(shape.name());
         if target.exists() && !args.force {
@@ -104,8 +106,13 @@ pub fn run(args: Args) -> Result<()> {
     );
     for shape in shapes {
         // Deleted with its contents unless renamed away (any error, or a panic).
-        let tmp = tempfile::Builder::new()
-            .prefix(".synth-")
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(".synth-");
+        // Renamed into place as the data set's folder: the mode `mkdir` gives (0777 & ~umask),
+        // not tempfile's private 0700.
+        #[cfg(unix)]
+        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o777));
+        let tmp = builder
             .tempdir_in(dir)
             .with_context(|| format!("cannot create a temporary folder in {}", dir.display()))?;
         let files = write_benchmark(tmp.path(), &[shape], &options)?;

@@ -35,7 +35,7 @@ fn draws_labels_and_contours() {
     let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
     assert!(width > 2 * 100 && width <= 2 * 480 + 200, "width {width}");
 
-    let out = picture(&["-o", png.to_str().unwrap(), "--frame", "9"]);
+    let out = picture(&["-o", png.to_str().unwrap(), "--frame", "9", "--force"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         !out.status.success() && err.contains("--frame 9") && err.contains("3 frames"),
@@ -160,6 +160,7 @@ fn the_3d_views_put_the_patients_right_where_they_say() {
                 "1",
                 "--view",
                 view,
+                "--force",
             ],
         );
         succeeded(&out);

@@ -17,6 +17,7 @@
 //! The file is written beside its destination under a temporary name and renamed when the last
 //! frame is in, so an interrupted run never leaves a truncated volume under the real name.
 
+use crate::atomic::{create_temporary, persist};
 use crate::nifti::HEADER_SIZE;
 use crate::voxel_type::VoxelType;
 use anyhow::{bail, ensure, Context, Result};
@@ -24,6 +25,7 @@ use flate2::write::GzEncoder;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use tempfile::TempPath;
 
 /// Voxel data offset: the header and the 4-byte extension flag (no extensions).
 const VOX_OFFSET: usize = HEADER_SIZE + 4;
@@ -87,8 +89,9 @@ impl Sink {
 /// An open label volume being written frame by frame; see the [module docs](self).
 pub struct NiftiStream {
     path: PathBuf,
-    tmp: PathBuf,
-    sink: Option<Sink>,
+    /// The temporary of [`create_temporary`], deleted when dropped unfinished.
+    tmp: TempPath,
+    sink: Sink,
     label_type: VoxelType,
     label_range: (i32, i32),
     voxels_per_frame: usize,
@@ -125,14 +128,9 @@ impl NiftiStream {
             header.frames,
             i16::MAX
         );
-        let name = path
-            .file_name()
-            .with_context(|| format!("{} is not a file path", path.display()))?;
-        let tmp = path.with_file_name(format!(".{}.tmp", name.to_string_lossy()));
-        let file =
-            File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+        let (file, tmp) = create_temporary(path)?;
         let file = BufWriter::new(file);
-        let gzip = name.to_string_lossy().to_ascii_lowercase().ends_with(".gz");
+        let gzip = path.to_string_lossy().to_ascii_lowercase().ends_with(".gz");
         let sink = if gzip {
             Sink::Gzip(GzEncoder::new(file, flate2::Compression::default()))
         } else {
@@ -143,7 +141,7 @@ impl NiftiStream {
         let mut stream = NiftiStream {
             path: path.to_path_buf(),
             tmp,
-            sink: Some(sink),
+            sink,
             label_type,
             label_range: (lo, hi),
             voxels_per_frame: header.dims.iter().product(),
@@ -198,7 +196,7 @@ impl NiftiStream {
     }
 
     /// Completes the file after the last frame: flushes, syncs and renames it into place.
-    pub fn finish(mut self) -> Result<()> {
+    pub fn finish(self) -> Result<()> {
         ensure!(
             self.written == self.frames,
             "{}: {} of {} frames written",
@@ -207,35 +205,21 @@ impl NiftiStream {
             self.frames
         );
         let tmp = self.tmp.display().to_string();
-        let file = match self.sink.take() {
-            Some(Sink::Plain(w)) => w.into_inner().map_err(|e| e.into_error()),
-            Some(Sink::Gzip(w)) => w
+        let file = match self.sink {
+            Sink::Plain(w) => w.into_inner().map_err(|e| e.into_error()),
+            Sink::Gzip(w) => w
                 .finish()
                 .and_then(|w| w.into_inner().map_err(|e| e.into_error())),
-            None => unreachable!("the sink is only taken here, by value"),
         }
         .with_context(|| format!("cannot write {tmp}"))?;
-        file.sync_all()
-            .with_context(|| format!("cannot sync {tmp}"))?;
-        drop(file);
-        std::fs::rename(&self.tmp, &self.path)
-            .with_context(|| format!("cannot rename {tmp} to {}", self.path.display()))
+        persist(file, self.tmp, &self.path)
     }
 
     fn write_bytes(&mut self, bytes: &[u8]) -> Result<()> {
-        let sink = self.sink.as_mut().expect("open until finish");
-        sink.writer()
+        self.sink
+            .writer()
             .write_all(bytes)
             .with_context(|| format!("cannot write {}", self.tmp.display()))
-    }
-}
-
-impl Drop for NiftiStream {
-    /// An unfinished volume (an error or a panic mid-way) leaves no temporary file behind.
-    fn drop(&mut self) {
-        if self.sink.take().is_some() {
-            let _ = std::fs::remove_file(&self.tmp);
-        }
     }
 }
 
@@ -449,7 +433,7 @@ mod tests {
                 .unwrap()
                 .file_name()
                 .to_string_lossy()
-                .ends_with(".tmp")));
+                .starts_with('.')));
         }
         let kinds =
             [(0, 7), (-40000, 40000)].map(|(lo, hi)| VoxelType::narrowest(lo, hi, &OFFERED));

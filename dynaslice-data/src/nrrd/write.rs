@@ -7,9 +7,10 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use flate2::write::GzEncoder;
+use tempfile::TempPath;
 
 use super::{escape, flip_xy};
-use crate::atomic::write_atomically;
+use crate::atomic::{create_temporary, persist, write_atomically};
 use crate::error::{DataError, ErrorKind, Result};
 use crate::nifti::det3;
 use crate::palette::palette;
@@ -278,8 +279,9 @@ fn encode(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<Vec<u8>
 /// writer is dropped before.
 pub struct SequenceWriter {
     path: PathBuf,
-    tmp: PathBuf,
-    sink: Option<GzEncoder<BufWriter<File>>>,
+    /// The temporary of [`create_temporary`], deleted when dropped unfinished.
+    tmp: TempPath,
+    sink: GzEncoder<BufWriter<File>>,
     header: SegmentationHeader,
     voxel_type: VoxelType,
     frames: usize,
@@ -299,29 +301,22 @@ impl SequenceWriter {
         if let Some(t) = times.iter().find(|t| !t.is_finite()) {
             return Err(at(format!("frame time {t} is not finite")));
         }
-        let name = path
-            .file_name()
-            .ok_or_else(|| at("not a file name".into()))?;
-        let tmp = path.with_file_name(format!(".{}.tmp", name.to_string_lossy()));
-        let mut file = File::create(&tmp)
-            .map(BufWriter::new)
-            .map_err(|e| at(format!("cannot create {}: {e}", tmp.display())))?;
-        let mut writer = SequenceWriter {
+        // Dropping `tmp` (on any error below) deletes the temporary file.
+        let (file, tmp) = create_temporary(path).map_err(|e| at(format!("{e:#}")))?;
+        let mut file = BufWriter::new(file);
+        let text = header_text(header, voxel_type, Some(times));
+        file.write_all(text.as_bytes())
+            .map_err(|e| at(format!("cannot write: {e}")))?;
+        Ok(SequenceWriter {
             path: path.to_path_buf(),
             tmp,
-            sink: None,
+            sink: GzEncoder::new(file, flate2::Compression::default()),
             header: header.clone(),
             voxel_type,
             frames: times.len(),
             written: 0,
             buffer: Vec::with_capacity(1 << 16),
-        };
-        // From here on, dropping `writer` deletes the temporary file.
-        let text = header_text(header, voxel_type, Some(times));
-        let result = file.write_all(text.as_bytes());
-        writer.sink = Some(GzEncoder::new(file, flate2::Compression::default()));
-        result.map_err(|e| writer.error(format!("cannot write: {e}")))?;
-        Ok(writer)
+        })
     }
 
     /// Appends the next frame: one label per voxel, x fastest, each 0 or a class's label.
@@ -334,7 +329,7 @@ impl SequenceWriter {
         }
         check_labels(&self.header, labels).map_err(|e| self.error(e))?;
         let mut buffer = std::mem::take(&mut self.buffer);
-        let sink = self.sink.as_mut().expect("open until finish");
+        let sink = &mut self.sink;
         let mut result = Ok(());
         for chunk in labels.chunks(1 << 14) {
             encode_voxels(chunk, self.voxel_type, &mut buffer);
@@ -350,37 +345,25 @@ impl SequenceWriter {
     }
 
     /// Completes the file after the last frame: flushes, syncs and renames it into place.
-    pub fn finish(mut self) -> Result<()> {
+    pub fn finish(self) -> Result<()> {
         if self.written != self.frames {
             return Err(self.error(format!(
                 "{} of {} frames written",
                 self.written, self.frames
             )));
         }
-        let sink = self.sink.take().expect("open until finish");
-        let done = sink
+        let path = self.path;
+        let failed = |e: String| DataError::new(ErrorKind::Nrrd(format!("cannot write: {e}")));
+        let file = self
+            .sink
             .finish()
             .and_then(|w| w.into_inner().map_err(|e| e.into_error()))
-            .and_then(|file| file.sync_all())
-            .and_then(|()| std::fs::rename(&self.tmp, &self.path));
-        if let Err(e) = done {
-            let _ = std::fs::remove_file(&self.tmp);
-            return Err(self.error(format!("cannot write: {e}")));
-        }
-        Ok(())
+            .map_err(|e| failed(e.to_string()).in_file(&path))?;
+        persist(file, self.tmp, &path).map_err(|e| failed(format!("{e:#}")).in_file(&path))
     }
 
     fn error(&self, what: String) -> DataError {
         DataError::new(ErrorKind::Nrrd(what)).in_file(&self.path)
-    }
-}
-
-impl Drop for SequenceWriter {
-    /// An unfinished sequence (an error or a panic mid-way) leaves no temporary file behind.
-    fn drop(&mut self) {
-        if self.sink.take().is_some() {
-            let _ = std::fs::remove_file(&self.tmp);
-        }
     }
 }
 

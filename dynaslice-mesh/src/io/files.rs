@@ -138,12 +138,18 @@ impl MeshFiles {
     /// Ends the run: for a series of VTK XML files writes `series.pvd` (ParaView collections list
     /// VTK XML files only) and returns its path; `None` otherwise.
     pub fn finish(self) -> Result<Option<PathBuf>> {
-        if self.kind != Kind::Series || self.format != Format::Vtp {
+        let Some(path) = self.collection() else {
             return Ok(None);
-        }
-        let path = self.output.join("series.pvd");
+        };
         write_atomically(&path, pvd::encode(&self.entries).as_bytes())?;
         Ok(Some(path))
+    }
+
+    /// The collection [`MeshFiles::finish`] writes: `series.pvd` in the directory of a series
+    /// of VTK XML files (ParaView collections list VTK XML files only), else none.
+    pub fn collection(&self) -> Option<PathBuf> {
+        (self.kind == Kind::Series && self.format == Format::Vtp)
+            .then(|| self.output.join("series.pvd"))
     }
 }
 
