@@ -6,7 +6,7 @@
 //! [`dynaslice_data::atomic::write_via`] writes a library's output under a temporary name and
 //! renames it into place, so a failed run leaves neither a partial file nor a damaged old one.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 
@@ -215,14 +215,13 @@ fn parent_exists(option: &str, path: &Path) -> Result<()> {
 }
 
 /// `path` as an input: it exists and is a regular file (a FIFO would block the open, a device
-/// like /dev/zero would never end). `what` names it in the message (e.g. "model").
+/// like /dev/zero would never end), checked by the readers' own rule
+/// ([`dynaslice_data::input_file::regular_file`]). `what` names it in the message (e.g. "model").
 pub fn regular_file(what: &str, path: &Path) -> Result<()> {
-    let meta = std::fs::metadata(path)
-        .with_context(|| format!("cannot read {what} {}", path.display()))?;
-    if !meta.is_file() {
-        bail!("cannot read {what} {}: not a regular file", path.display());
+    match dynaslice_data::input_file::regular_file(path) {
+        Ok(_) => Ok(()),
+        Err(e) => bail!("cannot read {what} {}: {}", path.display(), e.kind),
     }
-    Ok(())
 }
 
 #[cfg(test)]

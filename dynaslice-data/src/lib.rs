@@ -27,6 +27,7 @@ pub mod error;
 pub mod frame_range;
 pub mod geometry;
 pub mod input;
+pub mod input_file;
 pub mod label_table;
 pub mod manifest;
 pub mod native;
