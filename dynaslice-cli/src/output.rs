@@ -128,8 +128,6 @@ impl Plan {
 
     /// Checks a file the run continues when it exists (a resumed checkpoint, an appended
     /// journal): as [`Plan::beside`], except that an existing one is expected.
-    // For train.rs's checkpoint and journal, whose rewrite calls it.
-    #[allow(dead_code)]
     pub fn continued(&mut self, path: &Path) -> Result<()> {
         self.check_file("the output", path)?;
         self.claim(path)
@@ -282,14 +280,13 @@ fn parent_exists(option: &str, path: &Path) -> Result<()> {
 }
 
 /// `path` as an input: it exists and is a regular file (a FIFO would block the open, a device
-/// like /dev/zero would never end). `what` names it in the message (e.g. "model").
+/// like /dev/zero would never end), checked by the readers' own rule
+/// ([`dynaslice_data::input_file::regular_file`]). `what` names it in the message (e.g. "model").
 pub fn regular_file(what: &str, path: &Path) -> Result<()> {
-    let meta = std::fs::metadata(path)
-        .with_context(|| format!("cannot read {what} {}", path.display()))?;
-    if !meta.is_file() {
-        bail!("cannot read {what} {}: not a regular file", path.display());
+    match dynaslice_data::input_file::regular_file(path) {
+        Ok(_) => Ok(()),
+        Err(e) => bail!("cannot read {what} {}: {}", path.display(), e.kind),
     }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -198,11 +198,15 @@ pub fn run(a: Args) -> Result<()> {
     spec.validate()?;
     let files = RunFiles::beside(&a.output);
     let inputs = a.input.inputs.iter().chain(&a.input.label_names);
+    // Held for the whole run: every file below is claimed, so a second run on the same -o
+    // refuses and what is on disk comes from one run.
     let mut plan = Plan::new(inputs, a.force);
     plan.file("-o", &files.model, Kind::Model)?;
-    for p in files.sidecars() {
-        plan.beside(p)?;
-    }
+    plan.beside(&files.csv)?;
+    plan.beside(&files.png)?;
+    // The run's state may exist: a checkpoint to resume (or, with --force, to replace).
+    plan.continued(&files.checkpoint)?;
+    plan.continued(&files.journal)?;
     files.check_state(&spec)?;
     if a.resume && !files.checkpoint.exists() {
         eprintln!(

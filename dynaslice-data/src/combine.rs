@@ -3,8 +3,12 @@
 //!
 //! **Classes are matched by name** (ignoring case and surrounding blanks), not by label value:
 //! the ROI numbers of two RT Structure Sets of one patient differ from phase to phase while their
-//! names agree, and unnamed label-map classes are named `label N`, so for them matching by name is
-//! matching by value. The combined class keeps the first input's spelling, label value and colour.
+//! names agree. A name the reader made up (`label N`, for a label value that neither the file nor
+//! the user's table names: [`Part::generated`]) matches only names made up by the reader of the
+//! same format: label 1 of two NIfTI phases of one series is one structure, but label 1 of a
+//! `.csl` file and label 1 of a NIfTI map are unrelated, and they stay two classes (the later one
+//! renamed `label 1 (FILE)`, with a warning) unless a name from the file or from `--label-names`
+//! says they are one. The combined class keeps the first input's spelling, label value and colour.
 //! A later class whose label value is already taken by another name gets the next free value,
 //! with a warning, so the combined classes' values stay unique (label volumes are written with
 //! them).
@@ -23,6 +27,7 @@
 use std::path::{Path, PathBuf};
 
 use super::error::{DataError, ErrorKind, Result};
+use super::input::InputKind;
 use super::sequence::{Annotation, ClassInfo, Frame, Sequence};
 
 /// Times closer than this (relative to the larger magnitude, or absolute below 1) are one time.
@@ -46,6 +51,12 @@ pub struct Part {
     pub sequence: Sequence,
     /// What its planes say about the classes of other inputs.
     pub absence: Absence,
+    /// Per class of `sequence`: the kind of input whose reader made up its name (`label N`),
+    /// or `None` where the file or the user named it. See the [module docs](self).
+    pub generated: Vec<Option<InputKind>>,
+    /// The DICOM Frame of Reference UID its coordinates are in, where it gives one: inputs in
+    /// different frames cannot be combined.
+    pub frame_of_reference: Option<String>,
 }
 
 /// Whether two times are one time (see [`TIME_TOLERANCE`]).
@@ -53,10 +64,14 @@ pub fn same_time(a: f64, b: f64) -> bool {
     (a - b).abs() <= TIME_TOLERANCE * a.abs().max(b.abs()).max(1.0)
 }
 
-/// Combines `parts` (each with the file it came from, for messages) into one sequence. See the
-/// [module docs](self).
-pub fn combine(parts: Vec<Part>) -> Result<Sequence> {
+/// Combines `parts` (each with the file it came from, for messages) into one sequence, and says
+/// of each of its classes what [`Part::generated`] says. See the [module docs](self).
+pub fn combine(parts: Vec<Part>) -> Result<(Sequence, Vec<Option<InputKind>>)> {
+    check_frames_of_reference(&parts)?;
     let mut classes: Vec<ClassInfo> = Vec::new();
+    // Per combined class: the key it matches by (its first input's name, before any renaming)
+    // and what `Part::generated` says of it.
+    let mut keys: Vec<(String, Option<InputKind>)> = Vec::new();
     let mut frames: Vec<Frame> = Vec::new();
     // Planes of `Absence::Union` inputs, by (frame time, plane index in that frame), filled in
     // once every class is known.
@@ -65,12 +80,18 @@ pub fn combine(parts: Vec<Part>) -> Result<Sequence> {
         path,
         sequence,
         absence,
+        generated: own_generated,
+        frame_of_reference: _,
     } in parts
     {
         let (own_classes, own_frames) = sequence.into_parts();
         let map: Vec<usize> = own_classes
             .into_iter()
-            .map(|c| merge_class(&mut classes, c, &path))
+            .enumerate()
+            .map(|(k, c)| {
+                let source = own_generated.get(k).copied().flatten();
+                merge_class(&mut classes, &mut keys, (c, source), &path)
+            })
             .collect::<Result<_>>()?;
         for mut frame in own_frames {
             for plane in &mut frame.planes {
@@ -114,19 +135,64 @@ pub fn combine(parts: Vec<Part>) -> Result<Sequence> {
         }
     }
     frames.sort_by(|a, b| a.time.total_cmp(&b.time));
-    Sequence::new(classes, frames)
+    let generated = keys.into_iter().map(|(_, source)| source).collect();
+    Ok((Sequence::new(classes, frames)?, generated))
 }
 
-/// The index of `class` among `classes`, adding it if no class has its name.
-fn merge_class(classes: &mut Vec<ClassInfo>, class: ClassInfo, path: &Path) -> Result<usize> {
-    let key = |name: &str| name.trim().to_lowercase();
-    if let Some(k) = classes
-        .iter()
-        .position(|c| key(&c.name) == key(&class.name))
-    {
+/// Refuses parts in different DICOM Frames of Reference: their coordinates are in unrelated
+/// patient frames (another scan, another registration), naming both files and UIDs.
+fn check_frames_of_reference(parts: &[Part]) -> Result<()> {
+    let mut first: Option<(&Path, &str)> = None;
+    for part in parts {
+        let Some(uid) = part.frame_of_reference.as_deref() else {
+            continue;
+        };
+        match first {
+            None => first = Some((&part.path, uid)),
+            Some((path, other)) if other != uid => {
+                return Err(DataError::new(ErrorKind::Combine(format!(
+                    "its Frame of Reference UID {uid} differs from {other} of {}: the contours \
+                     are in different patient frames",
+                    path.display()
+                )))
+                .in_file(&part.path))
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
+}
+
+/// The index of `class` (with the kind of input that made up its name, if one did) among
+/// `classes`, adding it if no class matches it (see the [module docs](self)).
+fn merge_class(
+    classes: &mut Vec<ClassInfo>,
+    keys: &mut Vec<(String, Option<InputKind>)>,
+    (class, source): (ClassInfo, Option<InputKind>),
+    path: &Path,
+) -> Result<usize> {
+    let key = (class.name.trim().to_lowercase(), source);
+    if let Some(k) = keys.iter().position(|k| *k == key) {
         return Ok(k);
     }
     let mut class = class;
+    if let Some(k) = keys.iter().position(|k| k.0 == key.0) {
+        // A made-up name meeting an unrelated class of that name: kept apart, renamed.
+        let file = path
+            .file_name()
+            .unwrap_or(path.as_os_str())
+            .to_string_lossy();
+        let renamed = format!("{} ({file})", class.name);
+        log::warn!(
+            "{}: class {:?} is kept apart from the class {:?} of an earlier input, as one of the \
+             two names was made up from a label value; it is called {renamed:?} (name the labels, \
+             e.g. with --label-names, to make them one class)",
+            path.display(),
+            class.name,
+            classes[k].name,
+        );
+        class.name = renamed;
+    }
     if let Some(other) = classes.iter().find(|c| c.label == class.label) {
         let free = classes
             .iter()
@@ -151,6 +217,7 @@ fn merge_class(classes: &mut Vec<ClassInfo>, class: ClassInfo, path: &Path) -> R
         class.label = free;
     }
     classes.push(class);
+    keys.push(key);
     Ok(classes.len() - 1)
 }
 
@@ -163,6 +230,8 @@ mod tests {
     fn part(path: &str, sequence: Sequence, absence: Absence) -> Part {
         Part {
             path: path.into(),
+            generated: vec![None; sequence.classes().len()],
+            frame_of_reference: None,
             sequence,
             absence,
         }
@@ -231,7 +300,8 @@ mod tests {
             part("b", b, AsRead),
             part("c", c, AsRead),
         ])
-        .unwrap();
+        .unwrap()
+        .0;
         let names: Vec<(&str, i32)> = seq
             .classes()
             .iter()
@@ -258,7 +328,8 @@ mod tests {
             part("b", b, Union),
             part("c", c, AsRead),
         ])
-        .unwrap();
+        .unwrap()
+        .0;
         assert_eq!(seq.frames().len(), 1);
         let planes = &seq.frames()[0].planes;
         assert!(planes[0].annotation(1).unwrap().is_absent());
@@ -274,7 +345,40 @@ mod tests {
         assert!(!same_time(0.12, 0.1201));
         let a = one_plane(0.12, 0.0, &[("LV", 1)], vec![square(0, 0.0)]);
         let b = one_plane(0.04 * 3.0, 1.0, &[("LV", 1)], vec![square(0, 0.0)]);
-        let seq = combine(vec![part("a", a, AsRead), part("b", b, AsRead)]).unwrap();
+        let seq = combine(vec![part("a", a, AsRead), part("b", b, AsRead)])
+            .unwrap()
+            .0;
         assert_eq!(seq.frames().len(), 1);
+    }
+
+    #[test]
+    fn made_up_names_match_only_made_up_names_of_the_same_kind() {
+        let csl = one_plane(0.0, 0.0, &[("label 1", 1)], vec![square(0, 0.0)]);
+        let nifti = |z| one_plane(0.0, z, &[("label 1", 1)], vec![square(0, 2.0)]);
+        let made_up = |kind, sequence, path| Part {
+            generated: vec![Some(kind)],
+            ..part(path, sequence, Union)
+        };
+        let (seq, generated) = combine(vec![
+            made_up(InputKind::Csl, csl.clone(), "a.csl"),
+            made_up(InputKind::Nifti, nifti(1.0), "b.nii.gz"),
+            made_up(InputKind::Nifti, nifti(2.0), "c.nii.gz"),
+        ])
+        .unwrap();
+        let names: Vec<(&str, i32)> = seq
+            .classes()
+            .iter()
+            .map(|c| (c.name.as_str(), c.label))
+            .collect();
+        // The two NIfTI maps' label 1 is one class; the .csl's is another.
+        assert_eq!(names, [("label 1", 1), ("label 1 (b.nii.gz)", 2)]);
+        assert_eq!(generated, [Some(InputKind::Csl), Some(InputKind::Nifti)]);
+        // A name from the file or the user is not made up: it matches a made-up one no more.
+        let (seq, _) = combine(vec![
+            made_up(InputKind::Csl, csl, "a.csl"),
+            part("b.json", nifti(1.0), Union),
+        ])
+        .unwrap();
+        assert_eq!(seq.classes().len(), 2);
     }
 }

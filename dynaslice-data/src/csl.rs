@@ -52,7 +52,8 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use super::error::{DataError, ErrorKind, Result};
+use super::error::{excerpt, DataError, ErrorKind, Result};
+use super::input_file;
 use super::label_table::LabelTable;
 use super::reslice::{normalize, plane_axes};
 use super::sequence::{dot, Annotation, Frame, Plane, Rect, Sequence};
@@ -138,9 +139,12 @@ fn syntax(line: usize, what: String) -> DataError {
 }
 
 fn parse_num<T: std::str::FromStr>(line: usize, token: &str, what: &str) -> Result<T> {
-    token
-        .parse()
-        .map_err(|_| syntax(line, format!("{what} `{token}` is not a valid number")))
+    token.parse().map_err(|_| {
+        syntax(
+            line,
+            format!("{what} `{}` is not a valid number", excerpt(token)),
+        )
+    })
 }
 
 fn finite(line: usize, value: f64, what: &str) -> Result<f64> {
@@ -161,7 +165,7 @@ fn parse_file(text: &str) -> Result<RawFile> {
     if magic != ["CSLC"] {
         return Err(syntax(
             n,
-            format!("expected `CSLC`, found `{}`", magic.join(" ")),
+            format!("expected `CSLC`, found `{}`", excerpt(&magic.join(" "))),
         ));
     }
     let (n, counts) = lines.next(|| ErrorKind::Syntax("missing `<n_planes> <n_labels>`".into()))?;
@@ -395,6 +399,10 @@ impl std::fmt::Display for Place<'_> {
         write!(f, "{}, plane {}", self.path.display(), self.plane)
     }
 }
+
+/// Bytes a `.csl` file may hold (the cap on what is read; the parsed planes take about as much
+/// memory again).
+pub const MAX_BYTES: u64 = 1 << 30;
 
 /// Vertices within this fraction of their plane's extent (the diagonal of their bounding box)
 /// from a common plane are coplanar as far as a drawn contour goes: 0.1 % is about one pixel
@@ -658,7 +666,7 @@ fn even_odd_repair(
 }
 
 fn read_raw(path: &Path) -> Result<RawFile> {
-    let text = std::fs::read_to_string(path).map_err(|e| DataError::new(e.into()).in_file(path))?;
+    let text = input_file::read_text(path, MAX_BYTES, "a .csl file")?;
     parse_file(&text).map_err(|e| e.in_file(path))
 }
 

@@ -64,6 +64,12 @@ pub enum ErrorKind {
     /// The file could not be opened, read or written.
     #[error("i/o error: {0}")]
     Io(#[from] std::io::Error),
+    /// The path is not a regular file (a FIFO, a device, a folder): never opened for reading.
+    #[error("not a regular file ({0}); inputs are read from regular files")]
+    NotRegularFile(&'static str),
+    /// The file is larger than its format allows this reader to take.
+    #[error("too large: {0}")]
+    TooLarge(String),
     /// The text does not follow the format's grammar.
     #[error("{0}")]
     Syntax(String),
@@ -228,5 +234,35 @@ impl From<ErrorKind> for DataError {
     }
 }
 
+/// Bytes of a file's own text an error message quotes at most.
+pub const EXCERPT_BYTES: usize = 80;
+
+/// `text` for quoting in a message: whole when short, else its first [`EXCERPT_BYTES`] (on a
+/// character boundary) and how long it is, so a multi-megabyte line is never echoed whole.
+pub fn excerpt(text: &str) -> String {
+    if text.len() <= EXCERPT_BYTES {
+        return text.to_string();
+    }
+    let mut end = EXCERPT_BYTES;
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}… ({} bytes)", &text[..end], text.len())
+}
+
 /// Result alias of the data layer.
 pub type Result<T> = std::result::Result<T, DataError>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn excerpts_are_bounded_and_cut_on_characters() {
+        assert_eq!(excerpt("short"), "short");
+        let long = "é".repeat(4 << 20);
+        let e = excerpt(&long);
+        assert!(e.len() < EXCERPT_BYTES + 40, "{e}");
+        assert!(e.ends_with(&format!("… ({} bytes)", long.len())), "{e}");
+    }
+}

@@ -8,7 +8,7 @@
 //! | manifest | `.seq`, `.cslseq` | one timestep per line ([`crate::manifest`]) |
 //! | NIfTI label map | `.nii`, `.nii.gz` | planes per [`PlaneMode`] at every selected frame |
 //! | NRRD label map, 3D Slicer segmentation | `.nrrd`, `.nhdr`, `.seg.nrrd` | as NIfTI, with the segments' names and colours |
-//! | DICOM RT Structure Set | `.dcm`, or any file starting with the DICOM preamble | one timestep at time 0 |
+//! | DICOM RT Structure Set | `.dcm`, or any file with DICOM's `DICM` marker (at byte 128 or 0) | one timestep at time 0 |
 //!
 //! Several inputs are views of one subject ([`read`]): their time grids must agree, and every
 //! plane of an image annotates every class of them all (see [`crate::combine`]).
@@ -25,7 +25,7 @@ use super::reslice::{reslice, ResliceOptions};
 use super::rtstruct::{self, RoiExtent};
 use super::sequence::Sequence;
 use super::space::{Space, Units};
-use super::{csl, manifest, native, nifti, nrrd};
+use super::{csl, input_file, manifest, native, nifti, nrrd};
 
 /// How the inputs are read. [`Default`] is what the command line does without options.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -70,7 +70,7 @@ impl InputKind {
             InputKind::Nifti
         } else if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
             InputKind::Nrrd
-        } else if name.ends_with(".dcm") || has_dicom_preamble(path) {
+        } else if name.ends_with(".dcm") {
             InputKind::RtStruct
         } else if name.ends_with(".json") {
             InputKind::Native
@@ -78,6 +78,8 @@ impl InputKind {
             InputKind::Csl
         } else if name.ends_with(".seq") || name.ends_with(".cslseq") {
             InputKind::Manifest
+        } else if has_dicom_marker(path)? {
+            InputKind::RtStruct
         } else {
             return Err(DataError::new(ErrorKind::Option(
                 "unsupported input type (expected .json, .csl, .seq, .cslseq, .nii, .nii.gz, \
@@ -124,14 +126,22 @@ pub fn space_of(paths: &[PathBuf]) -> Result<(Space, Units)> {
     }
 }
 
-/// Whether the file starts with DICOM's 128-byte preamble and `DICM` (DICOM files often have no
-/// extension).
-fn has_dicom_preamble(path: &Path) -> bool {
+/// Whether the file has DICOM's `DICM` marker, after the 128-byte preamble or (a file written
+/// without one) at its start: DICOM files often have no extension (`RS.1.2.840…`). A path that
+/// is there but not a regular file is an error naming it; one that cannot be opened has no
+/// marker (the name then decides: an unsupported type).
+fn has_dicom_marker(path: &Path) -> Result<bool> {
     use std::io::Read;
-    let mut head = [0u8; 132];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok_and(|()| &head[128..] == b"DICM")
+    let file = match input_file::open(path) {
+        Ok((file, _)) => file,
+        Err(e) if matches!(e.kind, ErrorKind::Io(_)) => return Ok(false),
+        Err(e) => return Err(e),
+    };
+    let mut head = Vec::with_capacity(132);
+    file.take(132)
+        .read_to_end(&mut head)
+        .map_err(|e| DataError::new(e.into()).in_file(path))?;
+    Ok(head.get(128..132) == Some(b"DICM") || head.starts_with(b"DICM"))
 }
 
 /// Reads `paths` into one sequence, keeping the selected frames.
@@ -151,39 +161,70 @@ pub fn read(paths: &[PathBuf], options: &InputOptions) -> Result<Sequence> {
     if parts.len() == 1 {
         return Ok(parts.into_iter().next().expect("one part").sequence);
     }
-    combine(parts)
+    Ok(combine(parts)?.0)
 }
 
 /// Reads one input, frames selected, as a part to combine.
 fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
     let at = |e: DataError| e.in_file(path);
-    let (sequence, absence) = match InputKind::of(path)? {
-        InputKind::Nifti => {
-            let volume = nifti::read_volume(path)?;
+    let kind = InputKind::of(path)?;
+    // Per class: whether this reader made up its name (see `Part::generated`).
+    let made_up = |sequence: &Sequence, table: &LabelTable| -> Vec<Option<InputKind>> {
+        sequence
+            .classes()
+            .iter()
+            .map(|c| (!table.has_name(c.label)).then_some(kind))
+            .collect()
+    };
+    let mut frame_of_reference = None;
+    let (sequence, absence, generated) = match kind {
+        InputKind::Nifti | InputKind::Nrrd => {
+            let (volume, own) = match kind {
+                InputKind::Nifti => nifti::read_labelled_volume(path)?,
+                _ => nrrd::read_volume(path)?,
+            };
+            // The file's own table, then the colour tables beside it, then the user's.
+            let table = own
+                .overlaid(&LabelTable::beside(path)?)
+                .overlaid(&options.table);
+            let sequence = planes_of(&volume, &table, options).map_err(at)?;
+            let generated = made_up(&sequence, &table);
             return Ok(Part {
                 path: path.to_path_buf(),
-                sequence: planes_of(&volume, &options.table, options).map_err(at)?,
+                sequence,
                 absence: Absence::Union,
+                generated,
+                frame_of_reference: None,
             });
         }
-        InputKind::Nrrd => {
-            let (volume, own) = nrrd::read_volume(path)?;
-            let table = own.overlaid(&options.table);
-            return Ok(Part {
-                path: path.to_path_buf(),
-                sequence: planes_of(&volume, &table, options).map_err(at)?,
-                absence: Absence::Union,
-            });
+        InputKind::RtStruct => {
+            let (sequence, frame) = rtstruct::read_with_frame(path, options.roi_extent)?;
+            frame_of_reference = frame;
+            let named = vec![None; sequence.classes().len()];
+            (sequence, Absence::AsRead, named)
         }
-        InputKind::RtStruct => (rtstruct::read(path, options.roi_extent)?, Absence::AsRead),
-        InputKind::Native => (native::read(path)?, Absence::AsRead),
-        InputKind::Csl => (csl::read(path, &options.table)?, Absence::Union),
-        InputKind::Manifest => (read_manifest(path, options)?, Absence::AsRead),
+        InputKind::Native => {
+            let sequence = native::read(path)?;
+            let named = vec![None; sequence.classes().len()];
+            (sequence, Absence::AsRead, named)
+        }
+        InputKind::Csl => {
+            let sequence = csl::read(path, &options.table)?;
+            let generated = made_up(&sequence, &options.table);
+            (sequence, Absence::Union, generated)
+        }
+        InputKind::Manifest => {
+            let (sequence, generated, frame) = read_manifest(path, options)?;
+            frame_of_reference = frame;
+            (sequence, Absence::AsRead, generated)
+        }
     };
     Ok(Part {
         path: path.to_path_buf(),
         sequence: select_frames(sequence, options.frames).map_err(at)?,
         absence,
+        generated,
+        frame_of_reference,
     })
 }
 
@@ -210,8 +251,12 @@ fn planes_of(volume: &LabelVolume, table: &LabelTable, options: &InputOptions) -
     }
 }
 
+/// What a manifest holds: the sequence, what [`Part::generated`] says of each class, and the
+/// Frame of Reference of its entries.
+type Manifest = (Sequence, Vec<Option<InputKind>>, Option<String>);
+
 /// Reads a manifest: every entry a single timestep, placed at its time.
-fn read_manifest(path: &Path, options: &InputOptions) -> Result<Sequence> {
+fn read_manifest(path: &Path, options: &InputOptions) -> Result<Manifest> {
     let entry_options = InputOptions {
         frames: FrameRange::ALL,
         ..options.clone()
@@ -252,8 +297,10 @@ fn read_manifest(path: &Path, options: &InputOptions) -> Result<Sequence> {
         part.sequence = Sequence::new(classes, frames).map_err(|e| e.in_file(&entry.path))?;
         parts.push(part);
     }
+    let frame = parts.iter().find_map(|p| p.frame_of_reference.clone());
     // Whole-sequence errors (a class never contoured) name the manifest.
-    combine(parts).map_err(|e| e.in_file(path))
+    let (sequence, generated) = combine(parts).map_err(|e| e.in_file(path))?;
+    Ok((sequence, generated, frame))
 }
 
 fn manifest_error(path: &Path, line: usize, what: &str) -> DataError {

@@ -6,9 +6,11 @@
 //! | --- | --- |
 //! | native JSON (`docs/data-format.md`) | [`native::read`], [`native::write`] |
 //! | any input, one or several, by file name | [`input::read`] |
+//! | opening any input file: regular files only, reads capped by the format | [`input_file`] |
 //! | `.csl` file | [`csl::read`] |
 //! | `.seq` manifest | [`manifest::read`], read through [`input::read`] |
 //! | NIfTI label volume, resliced | [`nifti::read`] with [`reslice::ResliceOptions`] |
+//! | label names and colours (text, NIfTI XML, Slicer `.ctbl`, ITK-SNAP) | [`LabelTable`] |
 //! | DICOM RT Structure Set (RTSTRUCT) | [`rtstruct::read`] |
 //! | the synthetic benchmark | [`synth::slice_sequence`], [`synth::write_benchmark`] |
 //!
@@ -28,6 +30,7 @@ pub mod frame_range;
 pub mod geometry;
 pub mod input;
 pub mod input_spec;
+pub mod input_file;
 pub mod label_table;
 pub mod manifest;
 pub mod native;

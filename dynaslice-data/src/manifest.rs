@@ -15,11 +15,15 @@
 
 use std::path::{Path, PathBuf};
 
-use super::error::{DataError, ErrorKind, Result};
+use super::error::{excerpt, DataError, ErrorKind, Result};
+use super::input_file;
 
 /// Lines a manifest may hold: far beyond any real cohort, and a bound on what a hostile file
 /// can make us open.
 pub const MAX_ENTRIES: usize = 100_000;
+
+/// Bytes of one entry's path: Linux's `PATH_MAX`.
+const MAX_PATH_BYTES: usize = 4096;
 
 /// Bytes a manifest may hold.
 pub const MAX_BYTES: u64 = 16 << 20;
@@ -44,12 +48,15 @@ pub fn parse(text: &str, dir: &Path) -> Result<Vec<Entry>> {
             continue;
         }
         let at = |what: String| DataError::new(ErrorKind::Syntax(what)).at_line(i + 1);
-        let (time, path) = line
-            .split_once(char::is_whitespace)
-            .ok_or_else(|| at(format!("expected `<time> <path>`, found `{line}`")))?;
+        let (time, path) = line.split_once(char::is_whitespace).ok_or_else(|| {
+            at(format!(
+                "expected `<time> <path>`, found `{}`",
+                excerpt(line)
+            ))
+        })?;
         let time: f64 = time
             .parse()
-            .map_err(|_| at(format!("time `{time}` is not a number")))?;
+            .map_err(|_| at(format!("time `{}` is not a number", excerpt(time))))?;
         if !time.is_finite() {
             return Err(at(format!("time `{time}` is not finite")));
         }
@@ -60,6 +67,12 @@ pub fn parse(text: &str, dir: &Path) -> Result<Vec<Entry>> {
                      decrease)"
                 )));
             }
+        }
+        if path.len() > MAX_PATH_BYTES {
+            return Err(at(format!(
+                "a path of {} bytes; no file system takes paths over {MAX_PATH_BYTES}",
+                path.len()
+            )));
         }
         if entries.len() == MAX_ENTRIES {
             return Err(at(format!("more than {MAX_ENTRIES} entries")));
@@ -78,14 +91,7 @@ pub fn parse(text: &str, dir: &Path) -> Result<Vec<Entry>> {
 
 /// Reads a manifest file.
 pub fn read(path: &Path) -> Result<Vec<Entry>> {
-    let at = |kind: ErrorKind| DataError::new(kind).in_file(path);
-    let size = std::fs::metadata(path).map_err(|e| at(e.into()))?.len();
-    if size > MAX_BYTES {
-        return Err(at(ErrorKind::Syntax(format!(
-            "{size} bytes; a manifest may hold at most {MAX_BYTES}"
-        ))));
-    }
-    let text = std::fs::read_to_string(path).map_err(|e| at(e.into()))?;
+    let text = input_file::read_text(path, MAX_BYTES, "a manifest")?;
     parse(&text, path.parent().unwrap_or(Path::new("."))).map_err(|e| e.in_file(path))
 }
 

@@ -12,12 +12,17 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::error::{DataError, ErrorKind, Result};
+use super::input_file;
 use super::sequence::{ClassInfo, Frame, Sequence};
 
 /// Value of the document's `format` field.
 pub const FORMAT_NAME: &str = "dynaslice-sections";
 /// The format version this reader writes and accepts.
 pub const FORMAT_VERSION: u32 = 1;
+
+/// Bytes a native JSON file may hold (the cap on what is read: the parsed sequence takes about
+/// as much memory again).
+pub const MAX_BYTES: u64 = 1 << 30;
 
 #[derive(Serialize)]
 struct DocumentRef<'a> {
@@ -108,7 +113,7 @@ pub fn from_json(text: &str) -> Result<Sequence> {
 
 /// Reads a native JSON file.
 pub fn read(path: &Path) -> Result<Sequence> {
-    let text = std::fs::read_to_string(path).map_err(|e| DataError::new(e.into()).in_file(path))?;
+    let text = input_file::read_text(path, MAX_BYTES, "a native JSON sequence")?;
     from_json(&text).map_err(|e| e.in_file(path))
 }
 

@@ -12,6 +12,7 @@ use std::path::Path;
 use nifti::{Endianness, NiftiHeader, NiftiType};
 
 use super::error::{DataError, ErrorKind, Result};
+use super::input_file;
 use super::label_table::LabelTable;
 use super::nifti_stream::{NiftiStream, VolumeHeader};
 use super::reslice::{reslice, ResliceOptions};
@@ -70,33 +71,35 @@ pub(crate) const HEADER_SIZE: usize = 348;
 /// hold more than this × n bytes of NIfTI.
 const MAX_DEFLATE_RATIO: usize = 1032;
 
-/// Reads a label volume.
+/// Reads a label volume; see [`read_labelled_volume`] for the label table its header may carry.
+pub fn read_volume(path: &Path) -> Result<LabelVolume> {
+    read_labelled_volume(path).map(|(volume, _)| volume)
+}
+
+/// Bytes of header extensions read for a label table; extensions beyond them are skipped unread.
+const MAX_EXTENSION_BYTES: usize = 64 << 20;
+
+/// Reads a label volume and the label table (names, colours) of its header extensions: an XML
+/// `LabelTable` as Connectome Workbench and TotalSegmentator write it
+/// ([`LabelTable::from_xml`]). An extension that is not understood is skipped with a warning.
 ///
 /// Every size in the header is checked, with overflow-checked arithmetic, against what the file
 /// can hold before anything is allocated or decompressed for it: voxels are read from
 /// `vox_offset` (the extensions before it are skipped unread), as many bytes as the header's
 /// dimensions and datatype need, and a gzip stream is read to its end so its checksum is verified.
-pub fn read_volume(path: &Path) -> Result<LabelVolume> {
+pub fn read_labelled_volume(path: &Path) -> Result<(LabelVolume, LabelTable)> {
     let at = |kind: ErrorKind| DataError::new(kind).in_file(path);
     let unreadable =
         |e: &dyn std::fmt::Display| at(ErrorKind::Nifti(format!("unreadable or truncated: {e}")));
-    let bytes = std::fs::read(path).map_err(|e| at(e.into()))?;
-    let gz = bytes.starts_with(&[0x1f, 0x8b]);
-    // How many bytes of NIfTI the file can hold: the bound for every size the header claims.
-    let capacity = if gz {
-        bytes.len().saturating_mul(MAX_DEFLATE_RATIO)
-    } else {
-        bytes.len()
-    };
     // Streamed, not read through `InMemNiftiObject`: that reserves whatever the header's dims
     // (and each extension's size field) claim before reading, e.g. terabytes for 32767³ voxels
     // in a 400-byte file, and reads the voxels right after the extensions instead of at
     // `vox_offset`.
-    let mut source: Box<dyn Read + '_> = if gz {
-        Box::new(flate2::read::GzDecoder::new(&bytes[..]))
-    } else {
-        Box::new(&bytes[..])
-    };
+    let Source {
+        mut source,
+        gz,
+        capacity,
+    } = Source::open(path)?;
     let header = NiftiHeader::from_reader(&mut source).map_err(|e| unreadable(&e))?;
     if header.magic == *b"ni1\0" {
         return Err(at(ErrorKind::Nifti(
@@ -115,8 +118,18 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
     check_scaling(&header).map_err(at)?;
     let (start, size) = data_extent(&header, datatype, dims, frames, capacity, gz).map_err(at)?;
     let skip = (start - HEADER_SIZE) as u64;
-    let skipped = std::io::copy(&mut (&mut source).take(skip), &mut std::io::sink())
+    let mut extensions = Vec::new();
+    (&mut source)
+        .take(skip.min(MAX_EXTENSION_BYTES as u64))
+        .read_to_end(&mut extensions)
         .map_err(|e| unreadable(&e))?;
+    let skipped = extensions.len() as u64
+        + std::io::copy(
+            &mut (&mut source).take(skip - extensions.len() as u64),
+            &mut std::io::sink(),
+        )
+        .map_err(|e| unreadable(&e))?;
+    let table = extension_table(path, &extensions, header.endianness == Endianness::Big);
     // Exact for a plain file (its length was checked); a gzip stream grows with what it holds.
     let mut raw = Vec::with_capacity(if gz { 0 } else { size });
     (&mut source)
@@ -148,13 +161,73 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
             "pixdim[4] (time between frames) is {dt}"
         ))));
     }
-    Ok(LabelVolume {
+    let volume = LabelVolume {
         dims,
         frames,
         affine,
         frame_interval: if dt == 0.0 { 1.0 } else { dt },
         labels,
-    })
+    };
+    Ok((volume, table))
+}
+
+/// The label table of the header extensions in `bytes` (what lies between the 348-byte header
+/// and the voxels: the 4-byte extender, then `esize`, `ecode`, `esize - 8` bytes of content per
+/// extension). Extensions without one are reported with a warning and skipped.
+fn extension_table(path: &Path, bytes: &[u8], big_endian: bool) -> LabelTable {
+    let mut table = LabelTable::default();
+    if bytes.first().is_none_or(|&b| b == 0) {
+        return table;
+    }
+    let int = |at: usize| -> Option<i64> {
+        let b: [u8; 4] = bytes.get(at..at + 4)?.try_into().ok()?;
+        Some(i64::from(if big_endian {
+            i32::from_be_bytes(b)
+        } else {
+            i32::from_le_bytes(b)
+        }))
+    };
+    let mut pos = 4;
+    while pos + 8 <= bytes.len() {
+        let (Some(size), Some(code)) = (int(pos), int(pos + 4)) else {
+            break;
+        };
+        let end = usize::try_from(size)
+            .ok()
+            .filter(|&s| s >= 8)
+            .and_then(|s| pos.checked_add(s))
+            .filter(|&e| e <= bytes.len());
+        let Some(end) = end else {
+            log::warn!(
+                "{}: header extension at byte {} declares {size} bytes, more than the header                  holds; it and any after it are ignored",
+                path.display(),
+                HEADER_SIZE + pos
+            );
+            break;
+        };
+        let content = &bytes[pos + 8..end];
+        let text = std::str::from_utf8(content)
+            .ok()
+            .map(|t| t.trim_matches(|c: char| c == '\0' || c.is_whitespace()));
+        match text
+            .filter(|t| t.starts_with('<'))
+            .map(LabelTable::from_xml)
+        {
+            Some(Some(Ok(found))) => table = table.overlaid(&found),
+            Some(Some(Err(e))) => log::warn!(
+                "{}: the label table of header extension {code} is ignored: {e}",
+                path.display()
+            ),
+            _ => log::warn!(
+                "{}: header extension {code} ({} bytes) is not a label table this reader \
+                 understands (an XML LabelTable); ignored",
+                path.display(),
+                content.len()
+            ),
+        }
+        pos = end;
+    }
+    table
 }
 
 /// A NIfTI file's grid: what [`read_geometry`] reads from the header alone.
@@ -177,16 +250,11 @@ pub struct Geometry {
 /// voxel data is not.
 pub fn read_geometry(path: &Path) -> Result<Geometry> {
     let at = |kind: ErrorKind| DataError::new(kind).in_file(path);
-    let file = std::fs::File::open(path).map_err(|e| at(e.into()))?;
-    let mut file = std::io::BufReader::new(file);
-    let gz = std::io::BufRead::fill_buf(&mut file)
-        .map_err(|e| at(e.into()))?
-        .starts_with(&[0x1f, 0x8b]);
-    let mut source: Box<dyn Read> = if gz {
-        Box::new(flate2::read::GzDecoder::new(file))
-    } else {
-        Box::new(file)
-    };
+    let Source {
+        mut source,
+        gz,
+        capacity,
+    } = Source::open(path)?;
     let header = NiftiHeader::from_reader(&mut source).map_err(|e| {
         at(ErrorKind::Nifti(format!(
             "unreadable or truncated header: {e}"
@@ -194,6 +262,19 @@ pub fn read_geometry(path: &Path) -> Result<Geometry> {
     })?;
     let (dims, frames) = dimensions(&header).map_err(at)?;
     let affine = affine(&header).map_err(at)?;
+    // A header promising more voxels than the file can hold is refused here, before a caller
+    // sizes anything (a grid, a frame count) by it.
+    let bits = usize::try_from(header.bitpix)
+        .ok()
+        .filter(|&b| b > 0 && b % 8 == 0)
+        .ok_or_else(|| {
+            at(ErrorKind::Nifti(format!(
+                "bitpix {} is not a whole number of bytes",
+                header.bitpix
+            )))
+        })?;
+    let voxel = format!("{bits}-bit voxels");
+    check_extent(&header, bits / 8, &voxel, dims, frames, capacity, gz).map_err(at)?;
     let dt = f64::from(header.pixdim[4]);
     if !dt.is_finite() || dt < 0.0 {
         return Err(at(ErrorKind::Nifti(format!(
@@ -206,6 +287,39 @@ pub fn read_geometry(path: &Path) -> Result<Geometry> {
         affine,
         frame_interval: if dt == 0.0 { 1.0 } else { dt },
     })
+}
+
+/// An opened NIfTI file: its bytes (decompressed when gzipped, detected by content) and how
+/// many bytes of NIfTI it can hold, the bound for every size its header claims.
+struct Source {
+    source: Box<dyn Read>,
+    gz: bool,
+    capacity: usize,
+}
+
+impl Source {
+    fn open(path: &Path) -> Result<Source> {
+        let (file, size) = input_file::open(path)?;
+        // Never more than the size the file had when opened, should it grow.
+        let mut file = std::io::BufReader::new(file.take(size));
+        let gz = std::io::BufRead::fill_buf(&mut file)
+            .map_err(|e| DataError::new(e.into()).in_file(path))?
+            .starts_with(&[0x1f, 0x8b]);
+        let size = usize::try_from(size).unwrap_or(usize::MAX);
+        Ok(if gz {
+            Source {
+                source: Box::new(flate2::read::GzDecoder::new(file)),
+                gz,
+                capacity: size.saturating_mul(MAX_DEFLATE_RATIO),
+            }
+        } else {
+            Source {
+                source: Box::new(file),
+                gz,
+                capacity: size,
+            }
+        })
+    }
 }
 
 /// The label sample type of a NIfTI `datatype`; floating and complex types are refused.
@@ -245,6 +359,28 @@ fn data_extent(
             8 * bytes_per_voxel
         )));
     }
+    check_extent(
+        h,
+        bytes_per_voxel,
+        &format!("{t:?}"),
+        dims,
+        frames,
+        capacity,
+        gz,
+    )
+}
+
+/// Where `bytes_per_voxel`-byte voxels (`voxel` in messages) lie: (first byte, bytes), checked
+/// against the `capacity` of the file with overflow-checked arithmetic.
+fn check_extent(
+    h: &NiftiHeader,
+    bytes_per_voxel: usize,
+    voxel: &str,
+    dims: [usize; 3],
+    frames: usize,
+    capacity: usize,
+    gz: bool,
+) -> std::result::Result<(usize, usize), ErrorKind> {
     let offset = h.vox_offset;
     if !(offset.is_finite() && offset >= 0.0) {
         return Err(ErrorKind::Nifti(format!(
@@ -268,17 +404,18 @@ fn data_extent(
                 ""
             };
             Err(ErrorKind::Nifti(format!(
-                "dim {nx}×{ny}×{nz}×{frames} of {t:?} at vox_offset {start} needs more bytes \
+                "dim {nx}×{ny}×{nz}×{frames} of {voxel} at vox_offset {start} needs more bytes \
                  than the file can hold ({capacity}{limit})"
             )))
         }
     }
 }
 
-/// Reads a label volume and reslices it into a sequence (see [`super::reslice`]).
+/// Reads a label volume and reslices it into a sequence (see [`super::reslice`]), `names` over
+/// the table of its header extensions.
 pub fn read(path: &Path, options: &ResliceOptions, names: &LabelTable) -> Result<Sequence> {
-    let volume = read_volume(path)?;
-    reslice(&volume, options, names).map_err(|e| e.in_file(path))
+    let (volume, own) = read_labelled_volume(path)?;
+    reslice(&volume, options, &own.overlaid(names)).map_err(|e| e.in_file(path))
 }
 
 fn dimensions(h: &NiftiHeader) -> std::result::Result<([usize; 3], usize), ErrorKind> {

@@ -82,14 +82,13 @@
 //!   dropped; this changes no geometry.
 
 use std::collections::{BTreeMap, HashSet};
-use std::fs::File;
-use std::io::Read;
 use std::path::Path;
 
 use dicom_dictionary_std::tags;
 use dicom_object::{InMemDicomObject, Tag};
 
 use super::error::{DataError, ErrorKind, Result};
+use super::input_file;
 use super::reslice::{normalize, plane_axes};
 use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 use crate::geometry::{Point2, Polygon};
@@ -209,29 +208,50 @@ fn get_text(obj: &InMemDicomObject, tag: Tag) -> Option<String> {
 /// Reads an RT Structure Set as a one-timestep sequence at time 0. See the [module docs](self)
 /// for coordinates, classes, planes, absence ([`RoiExtent`]) and what is an error.
 pub fn read(path: &Path, extent: RoiExtent) -> Result<Sequence> {
-    let size = std::fs::metadata(path)
-        .map_err(|e| DataError::new(e.into()).in_file(path))?
-        .len();
-    if size > MAX_FILE_BYTES {
-        return Err(dicom(format!(
-            "the file has {size} bytes, over the {MAX_FILE_BYTES}-byte limit for an RT Structure Set"
-        ))
-        .in_file(path));
-    }
+    read_with_frame(path, extent).map(|(sequence, _)| sequence)
+}
+
+/// [`read`], with the Frame of Reference UID the contours are in (from the Referenced Frame of
+/// Reference Sequence (3006,0010), else the ROIs' Referenced Frame of Reference UID
+/// (3006,0024)), where the file gives one.
+pub fn read_with_frame(path: &Path, extent: RoiExtent) -> Result<(Sequence, Option<String>)> {
     // Read whole (the size is capped), so that the parse can see how many bytes are left.
-    let mut bytes = Vec::with_capacity(size as usize);
-    File::open(path)
-        .and_then(|f| f.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes))
-        .map_err(|e| DataError::new(e.into()).in_file(path))?;
-    if bytes.len() as u64 > MAX_FILE_BYTES {
-        return Err(dicom(format!(
-            "the file has over {MAX_FILE_BYTES} bytes, the limit for an RT Structure Set"
-        ))
-        .in_file(path));
+    let bytes = input_file::read(path, MAX_FILE_BYTES, "an RT Structure Set")?;
+    let (obj, layout) =
+        in_dicom_rs(|| bounded::read_object(&bytes)).map_err(|e| e.in_file(path))?;
+    if let bounded::Layout::Bare(uid) = layout {
+        log::warn!(
+            "{}: no DICOM preamble, `DICM` marker or file meta group (an older export); read as \
+             a bare data set in {}",
+            path.display(),
+            if uid == dicom_dictionary_std::uids::EXPLICIT_VR_LITTLE_ENDIAN {
+                "explicit VR little endian"
+            } else {
+                "implicit VR little endian"
+            }
+        );
     }
-    let obj = in_dicom_rs(|| bounded::read_object(&bytes)).map_err(|e| e.in_file(path))?;
     let rois = parse_rois(&obj, path).map_err(|e| e.in_file(path))?;
-    build(rois, extent, path).map_err(|e| e.in_file(path))
+    let sequence = build(rois, extent, path).map_err(|e| e.in_file(path))?;
+    Ok((sequence, frame_of_reference(&obj)))
+}
+
+/// The Frame of Reference UID of the structure set (see [`read_with_frame`]).
+fn frame_of_reference(obj: &InMemDicomObject) -> Option<String> {
+    let referenced =
+        get_items(obj, tags::REFERENCED_FRAME_OF_REFERENCE_SEQUENCE).and_then(|items| {
+            items
+                .iter()
+                .find_map(|i| get_text(i, tags::FRAME_OF_REFERENCE_UID))
+        });
+    let of_rois = || {
+        get_items(obj, tags::STRUCTURE_SET_ROI_SEQUENCE).and_then(|items| {
+            items
+                .iter()
+                .find_map(|i| get_text(i, tags::REFERENCED_FRAME_OF_REFERENCE_UID))
+        })
+    };
+    referenced.or_else(of_rois).filter(|uid| !uid.is_empty())
 }
 
 /// Runs `f`, which calls dicom-rs's parsers: parts of dicom-rs assert structural invariants of

@@ -54,7 +54,8 @@ fn seq_manifest_mixes_kinds_and_cslseq_is_an_alias() {
     std::fs::copy(&cslseq, &as_seq).unwrap();
     assert_eq!(read(&[as_seq], &InputOptions::default()).unwrap(), seq);
 
-    // A manifest of a .csl timestep and a 3D label map timestep: classes match by name.
+    // A manifest of a .csl timestep and a 3D label map timestep: their unnamed "label 1"
+    // classes are unrelated (two classes) unless the user names them.
     write(
         dir.path(),
         "ball3d.nii.gz",
@@ -62,11 +63,28 @@ fn seq_manifest_mixes_kinds_and_cslseq_is_an_alias() {
     );
     let mixed = dir.path().join("mixed.seq");
     std::fs::write(&mixed, "# two kinds\n0 ball_0.csl\n2.5 ball3d.nii.gz\n").unwrap();
-    let seq = read(&[mixed], &InputOptions::default()).unwrap();
+    let seq = read(std::slice::from_ref(&mixed), &InputOptions::default()).unwrap();
+    let names: Vec<&str> = seq.classes().iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["label 1", "label 1 (ball3d.nii.gz)"]);
+    let mut named = InputOptions::default();
+    named.table.insert(1, "ball");
+    let seq = read(&[mixed], &named).unwrap();
     assert_eq!(seq.classes().len(), 1);
-    assert_eq!(seq.classes()[0].name, "label 1");
+    assert_eq!(seq.classes()[0].name, "ball");
     let times: Vec<f64> = seq.frames().iter().map(|f| f.time).collect();
     assert_eq!(times, [0.0, 2.5]);
+
+    // Phases of one label-map series: their unnamed label 1 is one class.
+    write(
+        dir.path(),
+        "ball3d_b.nii.gz",
+        &ball(1, [12.0, 12.0, 12.0], 1, 1.0),
+    );
+    let phases = dir.path().join("phases.seq");
+    std::fs::write(&phases, "0 ball3d.nii.gz\n1 ball3d_b.nii.gz\n").unwrap();
+    let seq = read(&[phases], &InputOptions::default()).unwrap();
+    assert_eq!(seq.classes().len(), 1);
+    assert_eq!(seq.classes()[0].name, "label 1");
 }
 
 #[test]

@@ -392,3 +392,63 @@ nib.save(img, sys.argv[1])
         }
     }
 }
+
+#[test]
+fn the_shared_map_names_its_classes_from_its_xml_label_table() {
+    let Some(path) = shared_data("nifti/example_seg.nii.gz") else {
+        eprintln!("skipped: ../shared/data/nifti/example_seg.nii.gz is absent");
+        return;
+    };
+    let (_, table) = dynaslice_data::nifti::read_labelled_volume(&path).unwrap();
+    assert_eq!(table.name(1), "spleen");
+    let mut options = dynaslice_data::input::InputOptions::default();
+    options.reslice.labels = Some(vec![1, 2, 3]);
+    let seq = dynaslice_data::input::read(&[path], &options).unwrap();
+    let classes: Vec<(&str, Option<[u8; 3]>)> = seq
+        .classes()
+        .iter()
+        .map(|c| (c.name.as_str(), c.color))
+        .collect();
+    assert_eq!(
+        classes,
+        [
+            ("spleen", Some([0, 255, 0])),
+            ("kidney_right", Some([0, 0, 255])),
+            ("kidney_left", Some([255, 255, 0])),
+        ]
+    );
+}
+
+#[test]
+fn extensions_without_a_label_table_are_skipped_and_tables_beside_the_map_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("commented.nii.gz");
+    // nibabel, as a user's script adds a comment (code 6) and an XML label table (code 0).
+    let script = r#"
+import sys
+import numpy as np
+import nibabel as nib
+data = np.zeros((8, 8, 4), np.uint8)
+data[2:6, 2:6, 1:3] = 4
+img = nib.Nifti1Image(data, np.eye(4))
+img.header.extensions.append(nib.nifti1.Nifti1Extension(6, b"made by a test"))
+xml = b'<LabelTable><Label Key="4" Red="1" Green="0" Blue="0.5">liver</Label></LabelTable>'
+img.header.extensions.append(nib.nifti1.Nifti1Extension(0, xml))
+nib.save(img, sys.argv[1])
+"#;
+    if run_python(&["nibabel", "numpy"], script, &[&path]).is_none() {
+        return;
+    }
+    let (volume, table) = dynaslice_data::nifti::read_labelled_volume(&path).unwrap();
+    assert_eq!(volume.dims, [8, 8, 4]);
+    assert_eq!(
+        (table.name(4), table.color(4)),
+        ("liver".into(), Some([255, 0, 128]))
+    );
+    // A Slicer colour table beside the map, under its name, wins over the file's own.
+    std::fs::write(dir.path().join("commented.ctbl"), "4 hepar 1 2 3 255\n").unwrap();
+    let options = dynaslice_data::input::InputOptions::default();
+    let seq = dynaslice_data::input::read(&[path], &options).unwrap();
+    assert_eq!(seq.classes()[0].name, "hepar");
+    assert_eq!(seq.classes()[0].color, Some([1, 2, 3]));
+}

@@ -14,7 +14,8 @@ use dynaslice_test_support::python::run_python;
 use serde_json::{json, Value};
 
 /// `write_rtstruct(path, spec)`: a minimal RT Structure Set (Explicit VR Little Endian, Implicit
-/// with `implicit: true`) from a spec `{modality?, implicit?, omit?: [sequence names], rois:
+/// with `implicit: true`, Deflated Explicit with `deflated: true`; Frame of Reference UID
+/// `frame`, else a new one) from a spec `{modality?, implicit?, deflated?, frame?, omit?: [sequence names], rois:
 /// [{number, name, color?, contours?: [{type, data: [DS strings], npoints?}]}]}`; ROIs without
 /// `contours` get no ROIContourSequence item.
 /// Value validation is off so the bad-input tests can write NaN and odd counts.
@@ -23,7 +24,8 @@ import json, sys
 import pydicom
 from pydicom.dataset import Dataset, FileDataset, FileMetaDataset
 from pydicom.sequence import Sequence
-from pydicom.uid import ExplicitVRLittleEndian, ImplicitVRLittleEndian, generate_uid
+from pydicom.uid import (DeflatedExplicitVRLittleEndian, ExplicitVRLittleEndian,
+                         ImplicitVRLittleEndian, generate_uid)
 
 pydicom.config.settings.writing_validation_mode = pydicom.config.IGNORE
 pydicom.config.settings.reading_validation_mode = pydicom.config.IGNORE
@@ -32,14 +34,16 @@ def write_rtstruct(path, spec):
     meta = FileMetaDataset()
     meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.481.3"
     meta.MediaStorageSOPInstanceUID = generate_uid()
-    meta.TransferSyntaxUID = ImplicitVRLittleEndian if spec.get("implicit") else ExplicitVRLittleEndian
+    meta.TransferSyntaxUID = (ImplicitVRLittleEndian if spec.get("implicit")
+                              else DeflatedExplicitVRLittleEndian if spec.get("deflated")
+                              else ExplicitVRLittleEndian)
     ds = FileDataset(path, {}, file_meta=meta, preamble=b"\0" * 128)
     ds.SOPClassUID = meta.MediaStorageSOPClassUID
     ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
     ds.Modality = spec.get("modality", "RTSTRUCT")
     ds.PatientName = "Phantom"
     ds.StructureSetLabel = "test"
-    frame = generate_uid()
+    frame = spec.get("frame") or generate_uid()
     defined, contoured = [], []
     for roi in spec["rois"]:
         s = Dataset()
@@ -762,4 +766,120 @@ print(json.dumps({
             "centroid {centre:?} vs voxels {want:?}"
         );
     }
+}
+
+/// The time to read one legal contour of `n` points (a wavy ring, so no two edges are
+/// collinear) and one of `n` points on the next plane: prints it for n = 25k, 50k and 200k. A
+/// measurement, not a pass/fail limit: `cargo test -p dynaslice-data --profile test --test
+/// rtstruct -- --ignored --nocapture time_to_read_long_contours`.
+#[test]
+#[ignore = "a measurement; run by hand"]
+fn time_to_read_long_contours() {
+    let dir = tempfile::tempdir().unwrap();
+    for n in [25_000, 50_000, 200_000] {
+        let ring = |z: f64| -> Vec<[f64; 3]> {
+            (0..n)
+                .map(|j| {
+                    let a = std::f64::consts::TAU * j as f64 / n as f64;
+                    let r = 50.0 + 5.0 * (37.0 * a).sin();
+                    [r * a.cos(), r * a.sin(), z]
+                })
+                .collect()
+        };
+        // Implicit VR: a ContourData of over 64 KiB has no explicit-VR length field.
+        let spec = json!({"implicit": true, "rois": [{"number": 1, "name": "long",
+            "contours": [closed(&ring(0.0)), closed(&ring(3.0))]}]});
+        let Some(path) = write(dir.path(), &format!("long{n}"), &spec) else {
+            return;
+        };
+        let (start, cpu) = (std::time::Instant::now(), thread_cpu_seconds());
+        let seq = read(&path, RoiExtent::File).unwrap();
+        let seconds = start.elapsed().as_secs_f64();
+        let cpu = thread_cpu_seconds() - cpu;
+        assert_eq!(seq.frames()[0].planes.len(), 2);
+        println!("{n} points per contour: read in {seconds:.2} s ({cpu:.2} s of CPU)");
+    }
+}
+
+/// This thread's CPU time (Linux's schedstat; 0 elsewhere): the measure that a loaded machine
+/// does not inflate.
+fn thread_cpu_seconds() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or(0.0, |ns| ns * 1e-9)
+}
+
+#[test]
+fn files_without_preamble_or_extension_and_deflated_files_read() {
+    capture_warnings();
+    let dir = tempfile::tempdir().unwrap();
+    // pydicom's own rtstruct.dcm: a bare data set, no preamble, `DICM` or file meta group.
+    let bare = dir.path().join("bare.dcm");
+    let copy = "import shutil, sys\nfrom pydicom.data import get_testdata_file\n\
+                shutil.copy(get_testdata_file('rtstruct.dcm'), sys.argv[1])\n";
+    if run_python(&["pydicom"], copy, &[&bare]).is_none() {
+        return;
+    }
+    assert_ne!(&std::fs::read(&bare).unwrap()[128..132], b"DICM");
+    let seq = read(&bare, RoiExtent::default()).unwrap();
+    assert!(
+        seq.classes().iter().any(|c| c.name == "patient"),
+        "{:?}",
+        seq.classes()
+    );
+    let warned = warnings_about(&bare);
+    assert!(
+        warned.iter().any(|w| w.contains("no DICOM preamble")),
+        "{warned:?}"
+    );
+
+    // A deflated file reads as its explicit-VR twin; one without an extension is found by
+    // its `DICM` marker.
+    let Some(plain) = write(dir.path(), "plain", &phantom_spec()) else {
+        return;
+    };
+    let mut spec = phantom_spec();
+    spec["deflated"] = json!(true);
+    let deflated = write(dir.path(), "deflated", &spec).unwrap();
+    assert_ne!(
+        std::fs::read(&deflated).unwrap(),
+        std::fs::read(&plain).unwrap()
+    );
+    let expected = read(&plain, RoiExtent::default()).unwrap();
+    assert_eq!(read(&deflated, RoiExtent::default()).unwrap(), expected);
+    let bare_name = dir.path().join("RS.1.2.840.113619");
+    std::fs::copy(&plain, &bare_name).unwrap();
+    let seq = dynaslice_data::input::read(&[bare_name], &Default::default()).unwrap();
+    assert_eq!(seq, expected);
+}
+
+#[test]
+fn phases_in_different_frames_of_reference_are_an_error_naming_both() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut specs = Vec::new();
+    for frame in ["1.2.3.4", "1.2.3.4", "1.2.3.5"] {
+        let mut spec = phantom_spec();
+        spec["frame"] = json!(frame);
+        specs.push(spec);
+    }
+    let Some(a) = write(dir.path(), "phase0", &specs[0]) else {
+        return;
+    };
+    write(dir.path(), "phase1", &specs[1]).unwrap();
+    write(dir.path(), "other", &specs[2]).unwrap();
+    let manifest = dir.path().join("same.seq");
+    std::fs::write(&manifest, "0 phase0.dcm\n1 phase1.dcm\n").unwrap();
+    let options = Default::default();
+    let seq = dynaslice_data::input::read(&[manifest], &options).unwrap();
+    assert_eq!(seq.frames().len(), 2);
+    let manifest = dir.path().join("mixed.seq");
+    std::fs::write(&manifest, "0 phase0.dcm\n1 other.dcm\n").unwrap();
+    let e = dynaslice_data::input::read(&[manifest], &options)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("other.dcm") && e.contains(&a.display().to_string()) && e.contains("1.2.3.5"),
+        "{e}"
+    );
 }

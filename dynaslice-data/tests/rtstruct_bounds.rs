@@ -327,18 +327,19 @@ fn nesting_beyond_the_limit_is_an_error_not_a_stack_overflow() {
 /// A deflated data set would have to be inflated before its lengths mean anything, and then
 /// they are not bounded by the file's size: refused, as is an unknown transfer syntax.
 #[test]
-fn compressed_or_unknown_transfer_syntaxes_are_refused() {
+fn undeflatable_or_unknown_transfer_syntaxes_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let data = structure_set(SYNTAXES[0], triangle(SYNTAXES[0]));
     let deflated = Syntax {
         uid: "1.2.840.10008.1.2.1.99",
         ..SYNTAXES[0]
     };
+    // Deflated transfer syntax, but a data set that is not deflated.
     refused(
         dir.path(),
         "deflated.dcm",
         &part10(deflated, &data),
-        &["transfer syntax 1.2.840.10008.1.2.1.99", "compressed"],
+        &["transfer syntax 1.2.840.10008.1.2.1.99", "does not inflate"],
     );
     let unknown = Syntax {
         uid: "1.2.3.4",

@@ -19,14 +19,9 @@ impl ModelFile {
     /// regular file is opened (a FIFO would block the open), and its size is bounded by the
     /// largest model the format allows ([`ModelBytes::read`]).
     pub fn open(path: &Path) -> Result<ModelFile> {
-        let meta = std::fs::metadata(path)
-            .with_context(|| format!("cannot read model {}", path.display()))?;
-        if !meta.is_file() {
-            bail!(
-                "model {}: not a regular file (a directory, FIFO or device)",
-                path.display()
-            );
-        }
+        // The one rule of every reader: regular files only, checked before opening.
+        dynaslice_data::input_file::regular_file(path)
+            .map_err(|e| anyhow!("cannot read model {}: {}", path.display(), e.kind))?;
         let bytes = ModelBytes::read(path)
             .with_context(|| format!("cannot read model {}", path.display()))?;
         ModelFile::from_bytes(bytes, path)

@@ -58,11 +58,6 @@ impl RunFiles {
         }
     }
 
-    /// The files other than the model, which a run writes beside it.
-    pub fn sidecars(&self) -> [&Path; 4] {
-        [&self.csv, &self.png, &self.checkpoint, &self.journal]
-    }
-
     /// Whether a run of `spec` may start with the state found on disk: an existing checkpoint
     /// needs `resume` (continue it) or `force` (discard it). Returns whether the run resumes
     /// from a checkpoint.
@@ -73,6 +68,14 @@ impl RunFiles {
                 "{} holds the checkpoint of an earlier run; resume to continue it (--resume, \
                  resume=True), or force to start afresh and replace it (--force, force=True)",
                 self.checkpoint.display()
+            );
+        }
+        // A journal without its checkpoint is a killed run's leftover, rows of no state.
+        if self.journal.exists() && !has_checkpoint && !spec.force {
+            bail!(
+                "{} holds the loss rows of an earlier run without its checkpoint; force to \
+                 replace it (--force, force=True)",
+                self.journal.display()
             );
         }
         Ok(has_checkpoint && spec.resume)

@@ -182,7 +182,40 @@ pub fn label_tables() -> Vec<Named> {
             "-3 below zero\n0,background\n2147483647 largest\n7\tLV myocardium ♥\n",
         ),
         named("one.txt", "42 a\n"),
+        named(
+            "slicer.ctbl",
+            "# Color table file heart.ctbl\n0 Background 0 0 0 0\n1 left_ventricle 221 130 101 255\n",
+        ),
+        named(
+            "itksnap.label.txt",
+            "# ITK-SNAP Label Description File\n    0     0    0    0        0  0  0    \"Clear Label\"\n    2   255    0   10        1  1  1    \"right kidney\"\n",
+        ),
+        named("caret.xml", CARET_XML),
     ]
+}
+
+/// An XML label table as Connectome Workbench and TotalSegmentator write it in a NIfTI header
+/// extension.
+const CARET_XML: &str = r#"<?xml version="1.0" encoding="UTF-8"?> <CaretExtension>
+<VolumeInformation Index="0"> <LabelTable>
+<Label Key="1" Red="0.0" Green="1.0" Blue="0.0" Alpha="1"><![CDATA[spleen]]></Label>
+<Label Key="2" Red="0.0" Green="0.0" Blue="1.0" Alpha="1"><![CDATA[kidney_right]]></Label>
+</LabelTable> </VolumeInformation></CaretExtension>"#;
+
+/// `nii` (a single-file NIfTI written by [`write_volume`], voxels at byte 352) with `xml` as a
+/// header extension of code 0 before its voxels, `vox_offset` moved past it.
+fn with_xml_extension(mut nii: Vec<u8>, xml: &str) -> Vec<u8> {
+    let mut content = xml.as_bytes().to_vec();
+    // esize (8 + content) is a multiple of 16.
+    content.resize((content.len() + 8).div_ceil(16) * 16 - 8, 0);
+    let esize = content.len() + 8;
+    let mut extension = (esize as i32).to_le_bytes().to_vec();
+    extension.extend(0i32.to_le_bytes());
+    extension.extend(content);
+    nii[108..112].copy_from_slice(&((352 + esize) as f32).to_le_bytes());
+    nii[348] = 1;
+    nii.splice(352..352, extension);
+    nii
 }
 
 /// The names of [`sandbox_files`], the only files a manifest may list for the `manifest`
@@ -282,6 +315,11 @@ pub fn nifti_files(work: &Path) -> Result<Vec<Named>, Error> {
         write_volume(&volume, &path)?;
         out.push(named(name, std::fs::read(&path)?));
     }
+    let plain = out[0].1.clone();
+    out.push(named(
+        "labelled_u8.nii",
+        with_xml_extension(plain, CARET_XML),
+    ));
     Ok(out)
 }
 
@@ -546,7 +584,38 @@ pub fn rtstruct_files() -> Result<Vec<Named>, Error> {
             "two_orientations.dcm",
             rtstruct(&[gtv(), sagittal], uids::EXPLICIT_VR_LITTLE_ENDIAN)?,
         ),
+        named(
+            "bare_implicit.dcm",
+            data_set(&rtstruct(&[gtv()], uids::IMPLICIT_VR_LITTLE_ENDIAN)?).to_vec(),
+        ),
+        named(
+            "deflated.dcm",
+            deflated(&rtstruct(&[lung()], uids::EXPLICIT_VR_LITTLE_ENDIAN)?)?,
+        ),
     ])
+}
+
+/// The data set of a Part 10 file written by [`rtstruct`]: what follows the file meta group,
+/// whose length (0002,0000) is the first meta element's value (bytes 140..144).
+fn data_set(part10: &[u8]) -> &[u8] {
+    let meta = u32::from_le_bytes(part10[140..144].try_into().expect("4 bytes")) as usize;
+    &part10[144 + meta..]
+}
+
+/// An explicit-VR Part 10 file rewritten with the deflated transfer syntax: preamble, a file
+/// meta group naming it, then the data set deflated (raw deflate, PS3.5 A.5).
+fn deflated(explicit: &[u8]) -> Result<Vec<u8>, Error> {
+    let meta = FileMetaTableBuilder::new()
+        .transfer_syntax(uids::DEFLATED_EXPLICIT_VR_LITTLE_ENDIAN)
+        .media_storage_sop_class_uid(uids::RT_STRUCTURE_SET_STORAGE)
+        .media_storage_sop_instance_uid("2.25.1234567890123456789")
+        .build()?;
+    let mut bytes = vec![0u8; 128];
+    bytes.extend(b"DICM");
+    meta.write(&mut bytes)?;
+    let mut encoder = flate2::write::DeflateEncoder::new(bytes, flate2::Compression::default());
+    encoder.write_all(data_set(explicit))?;
+    Ok(encoder.finish()?)
 }
 
 /// What the `checkpoint` target's first byte asks (see [`crate::readers::checkpoint`]): load

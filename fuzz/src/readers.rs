@@ -178,9 +178,13 @@ pub fn native_json(data: &[u8]) {
     }
 }
 
-/// `LabelTable::parse`; an accepted table written by `to_text` parses to an equal table.
+/// `LabelTable::parse`; an accepted table written by `to_text` parses to an equal table. The
+/// other label-table readers (XML, Slicer `.ctbl`, ITK-SNAP) on the same text must not panic.
 pub fn label_table(data: &[u8]) {
     let Some(text) = text(data) else { return };
+    let _ = LabelTable::from_xml(text);
+    let _ = LabelTable::parse_slicer_ctbl(text);
+    let _ = LabelTable::parse_itksnap(text);
     if let Ok(table) = LabelTable::parse(text) {
         match LabelTable::parse(&table.to_text()) {
             Ok(back) => assert!(back == table, "a label table changed through to_text"),
@@ -330,7 +334,17 @@ pub fn accepts(target: &str, name: &str, bytes: &[u8]) -> Result<(), fixtures::E
             native_json(bytes);
         }
         "label_table" => {
-            LabelTable::parse(utf8()?)?;
+            // Each seed is a table of one of the formats, by its name.
+            let text = utf8()?;
+            if name.ends_with(".ctbl") {
+                LabelTable::parse_slicer_ctbl(text)?;
+            } else if name.ends_with(".label.txt") {
+                LabelTable::parse_itksnap(text)?;
+            } else if name.ends_with(".xml") {
+                LabelTable::from_xml(text).ok_or("no XML label table")??;
+            } else {
+                LabelTable::parse(text)?;
+            }
             label_table(bytes);
         }
         "manifest" => {

@@ -7,7 +7,9 @@
 //! direction (dx, dy) is then (dy, −dx)/len, and the sign of the distance near a vertex follows
 //! from the two adjacent edge normals (see [`super::sdf`]).
 
-use super::bucket_grid::BucketGrid;
+use std::ops::ControlFlow;
+
+use super::bucket_grid::for_each_near_pair;
 
 /// A point in plane coordinates (u, v).
 pub type Point2 = [f64; 2];
@@ -106,34 +108,32 @@ pub fn ring_edges<R: AsRef<[Point2]>>(rings: &[R]) -> Vec<(usize, usize, Point2,
 
 /// Finds two edges of `polys` that cross or touch, other than consecutive edges of one polygon
 /// meeting at their shared vertex. Consecutive edges that fold back onto each other (a spike) are
-/// reported too. Edges are bucketed on a grid, so the cost is near-linear for real contours.
+/// reported too. O(n log n) for real contours (see [`for_each_near_pair`]).
 pub fn find_crossing(polys: &[Polygon]) -> Option<Crossing> {
     let edges = ring_edges(polys);
-    let grid = BucketGrid::new(edges.iter().map(|e| (e.2, e.3)), None)?;
-    for cell in 0..grid.cell_count() {
-        let items = grid.bucket(cell);
-        for (k, &ei) in items.iter().enumerate() {
-            let (pa, ia, a, b) = edges[ei as usize];
-            for &ej in &items[k + 1..] {
-                let (pb, ib, c, d) = edges[ej as usize];
-                let n = polys[pa].len();
-                let adjacent = pa == pb && (ib == (ia + 1) % n || ia == (ib + 1) % n);
-                let hit = if adjacent {
-                    folds_back(a, b, c, d)
-                } else {
-                    segments_intersect(a, b, c, d)
-                };
-                if hit {
-                    return Some(Crossing {
-                        first: (pa, ia),
-                        second: (pb, ib),
-                        near: [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5],
-                    });
-                }
-            }
+    let segments: Vec<(Point2, Point2)> = edges.iter().map(|e| (e.2, e.3)).collect();
+    let mut found = None;
+    for_each_near_pair(&segments, |ei, ej| {
+        let (pa, ia, a, b) = edges[ei];
+        let (pb, ib, c, d) = edges[ej];
+        let n = polys[pa].len();
+        let adjacent = pa == pb && (ib == (ia + 1) % n || ia == (ib + 1) % n);
+        let hit = if adjacent {
+            folds_back(a, b, c, d)
+        } else {
+            segments_intersect(a, b, c, d)
+        };
+        if !hit {
+            return ControlFlow::Continue(());
         }
-    }
-    None
+        found = Some(Crossing {
+            first: (pa, ia),
+            second: (pb, ib),
+            near: [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5],
+        });
+        ControlFlow::Break(())
+    });
+    found
 }
 
 /// For consecutive edges (sharing one endpoint): whether they are collinear and overlap beyond

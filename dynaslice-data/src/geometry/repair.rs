@@ -19,13 +19,14 @@
 //! itself (see `separate_pinches` in `sequence.rs`).
 
 use std::collections::{HashMap, HashSet};
+use std::ops::ControlFlow;
 
 use i_overlay::core::fill_rule::FillRule;
 use i_overlay::core::solver::Solver;
 use i_overlay::float::overlay::OverlayOptions;
 use i_overlay::float::simplify::SimplifyShape;
 
-use super::bucket_grid::BucketGrid;
+use super::bucket_grid::for_each_near_pair;
 use super::polygon::{ring_edges, segments_intersect, signed_area, Point2, Polygon};
 
 /// Where the rings of one annotation cross or touch in a way only an even-odd repair resolves.
@@ -82,11 +83,14 @@ fn same_ray(u: Point2, w: Point2) -> bool {
 /// folding back on itself, and rings passing through a shared vertex so that they cross there.
 /// `None` when there are none, or when a ring is malformed (left to the validator's errors).
 ///
-/// Edges are bucketed on a grid, so the cost is near-linear for real contours.
+/// O(n log n) for real contours (see [`for_each_near_pair`]).
 pub fn find_contacts(polys: &[Polygon]) -> Option<Contacts> {
     let rings = well_formed(polys)?;
     let edges = ring_edges(&rings);
-    let grid = BucketGrid::new(edges.iter().map(|e| (e.2, e.3)), None)?;
+    if edges.is_empty() {
+        return None;
+    }
+    let segments: Vec<(Point2, Point2)> = edges.iter().map(|e| (e.2, e.3)).collect();
     let mut involved: HashSet<usize> = HashSet::new();
     let mut between = false;
     let mut near = None;
@@ -98,43 +102,39 @@ pub fn find_contacts(polys: &[Polygon]) -> Option<Contacts> {
         between |= pa != pb;
         near.get_or_insert(p);
     };
-    for cell in 0..grid.cell_count() {
-        let items = grid.bucket(cell);
-        for (k, &ei) in items.iter().enumerate() {
-            let (pa, ia, a, b) = edges[ei as usize];
-            for &ej in &items[k + 1..] {
-                let (pb, ib, c, d) = edges[ej as usize];
-                let n = rings[pa].len();
-                if pa == pb && ib == (ia + 1) % n {
-                    if same_ray(sub(a, b), sub(d, c)) {
-                        hit(pa, pb, b);
-                    }
-                    continue;
-                }
-                if pa == pb && ia == (ib + 1) % n {
-                    if same_ray(sub(b, a), sub(c, d)) {
-                        hit(pa, pb, a);
-                    }
-                    continue;
-                }
-                if !segments_intersect(a, b, c, d) {
-                    continue;
-                }
-                // A contact only at one common endpoint is a pinch, unless the two edges also
-                // overlap along a common ray from it.
-                let shared = [(a, b), (b, a)]
-                    .into_iter()
-                    .flat_map(|(s, p)| [(s, p, c, d), (s, p, d, c)])
-                    .find(|&(s, _, t, _)| s == t);
-                match shared {
-                    Some((s, p, _, q)) if !same_ray(sub(p, s), sub(q, s)) => {
-                        pinches.insert(s.map(f64::to_bits));
-                    }
-                    _ => hit(pa, pb, [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5]),
-                }
+    for_each_near_pair(&segments, |ei, ej| {
+        let (pa, ia, a, b) = edges[ei];
+        let (pb, ib, c, d) = edges[ej];
+        let n = rings[pa].len();
+        if pa == pb && ib == (ia + 1) % n {
+            if same_ray(sub(a, b), sub(d, c)) {
+                hit(pa, pb, b);
             }
+            return ControlFlow::Continue(());
         }
-    }
+        if pa == pb && ia == (ib + 1) % n {
+            if same_ray(sub(b, a), sub(c, d)) {
+                hit(pa, pb, a);
+            }
+            return ControlFlow::Continue(());
+        }
+        if !segments_intersect(a, b, c, d) {
+            return ControlFlow::Continue(());
+        }
+        // A contact only at one common endpoint is a pinch, unless the two edges also
+        // overlap along a common ray from it.
+        let shared = [(a, b), (b, a)]
+            .into_iter()
+            .flat_map(|(s, p)| [(s, p, c, d), (s, p, d, c)])
+            .find(|&(s, _, t, _)| s == t);
+        match shared {
+            Some((s, p, _, q)) if !same_ray(sub(p, s), sub(q, s)) => {
+                pinches.insert(s.map(f64::to_bits));
+            }
+            _ => hit(pa, pb, [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5]),
+        }
+        ControlFlow::Continue(())
+    });
     if !pinches.is_empty() {
         for (s, (pa, pb)) in crossing_pinches(&rings, &pinches) {
             hit(pa, pb, s);

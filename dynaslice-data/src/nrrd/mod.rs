@@ -79,6 +79,10 @@ use crate::{label_table::LabelTable, nifti::LabelVolume};
 /// labels, well above a 512×512×1000 CT label map or a 256³ × 30-frame cine series.
 pub const MAX_ELEMENTS: usize = 1 << 30;
 
+/// Bytes an NRRD file (or its detached data file) may hold: the most data [`MAX_ELEMENTS`]
+/// 64-bit samples take, and 64 MiB of header (3D Slicer writes a few keys per segment).
+pub const MAX_FILE_BYTES: u64 = (MAX_ELEMENTS as u64) * 8 + (64 << 20);
+
 /// Our world frame is RAS; 3D Slicer's is LPS. The two differ by negating x and y, so the same
 /// map converts both ways: applied to the rows of an affine, or to a point.
 fn flip_xy(a: &[[f64; 4]; 3]) -> [[f64; 4]; 3] {

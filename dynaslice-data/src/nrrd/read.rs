@@ -5,8 +5,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use super::{flip_xy, unescape, MAX_ELEMENTS};
-use crate::error::{DataError, ErrorKind, Result};
+use super::{flip_xy, unescape, MAX_ELEMENTS, MAX_FILE_BYTES};
+use crate::error::{excerpt, DataError, ErrorKind, Result};
+use crate::input_file;
 use crate::label_table::LabelTable;
 use crate::nifti::{det3, LabelVolume};
 use crate::voxel_type::VoxelType;
@@ -30,7 +31,7 @@ fn nrrd(message: impl Into<String>) -> DataError {
 /// Every size in the header is checked, with overflow-checked arithmetic, against what the
 /// file can hold and against [`MAX_ELEMENTS`] before anything is allocated or decompressed.
 pub fn read_volume(path: &Path) -> Result<(LabelVolume, LabelTable)> {
-    let bytes = std::fs::read(path).map_err(|e| DataError::new(e.into()).in_file(path))?;
+    let bytes = input_file::read(path, MAX_FILE_BYTES, "an NRRD file")?;
     read_bytes(path, &bytes).map_err(|e| e.in_file(path))
 }
 
@@ -71,7 +72,7 @@ struct Field {
 impl Field {
     /// An error about this field, naming it and its line.
     fn error(&self, name: &str, what: impl std::fmt::Display) -> DataError {
-        nrrd(format!("`{name}: {}`: {what}", self.value)).at_line(self.line)
+        nrrd(format!("`{name}: {}`: {what}", excerpt(&self.value))).at_line(self.line)
     }
 }
 
@@ -160,17 +161,19 @@ impl Header {
             }
             let colon = text.find(':').ok_or_else(|| {
                 at(format!(
-                    "`{text}` is neither `field: description` nor `key:=value`"
+                    "`{}` is neither `field: description` nor `key:=value`",
+                    excerpt(text)
                 ))
             })?;
             let (name, rest) = (&text[..colon], &text[colon + 1..]);
             if let Some(value) = rest.strip_prefix('=') {
                 if name.is_empty() {
-                    return Err(at(format!("`{text}` has an empty key")));
+                    return Err(at(format!("`{}` has an empty key", excerpt(text))));
                 }
                 if let Some(first) = keys.insert(name.to_string(), number) {
                     return Err(at(format!(
-                        "key `{name}` is given twice (lines {first} and {number})"
+                        "key `{}` is given twice (lines {first} and {number})",
+                        excerpt(name)
                     )));
                 }
                 header
@@ -180,8 +183,9 @@ impl Header {
             }
             let Some(field) = canonical(name.trim()) else {
                 log::warn!(
-                    "{}, line {number}: unknown NRRD field `{name}` is ignored",
-                    path.display()
+                    "{}, line {number}: unknown NRRD field `{}` is ignored",
+                    path.display(),
+                    excerpt(name)
                 );
                 continue;
             };
@@ -459,7 +463,8 @@ impl Layout {
         for &a in &spatial {
             if let Some(k) = kind(a).filter(|k| !spatial_kind(k)) {
                 return Err(nrrd(format!(
-                    "`kinds`: axis {a} is spatial but its kind is `{k}`"
+                    "`kinds`: axis {a} is spatial but its kind is `{}`",
+                    excerpt(&k)
                 )));
             }
         }
@@ -478,7 +483,7 @@ impl Layout {
                         return Err(nrrd(format!(
                             "`kinds`: axis {a} is not spatial and its kind is {}; frames need \
                              `time`, a segmentation's layers `list` and SegmentN_ keys",
-                            k.map_or("not given".into(), |k| format!("`{k}`"))
+                            k.map_or("not given".into(), |k| format!("`{}`", excerpt(k)))
                         )))
                     }
                 },
@@ -565,7 +570,12 @@ fn sequence_interval(path: &Path, h: &Header, a: usize, frames: usize) -> Result
         .split_whitespace()
         .map(|v| v.parse::<f64>().ok().filter(|v| v.is_finite()))
         .collect::<Option<_>>()
-        .ok_or_else(|| nrrd(format!("`{key}`: not a list of finite numbers ({text:?})")))?;
+        .ok_or_else(|| {
+            nrrd(format!(
+                "`{key}`: not a list of finite numbers ({:?})",
+                excerpt(text)
+            ))
+        })?;
     if values.len() != frames {
         return Err(nrrd(format!(
             "`{key}`: {} times for the {frames} frames of axis {a}",
@@ -677,7 +687,10 @@ fn vectors(f: &Field, name: &str) -> Result<Vec<Option<[f64; 3]>>> {
             let end = rest.find(char::is_whitespace).unwrap_or(rest.len());
             let word = &rest[..end];
             if !word.eq_ignore_ascii_case("none") {
-                return Err(f.error(name, format!("`{word}` is neither a vector nor none")));
+                return Err(f.error(
+                    name,
+                    format!("`{}` is neither a vector nor none", excerpt(word)),
+                ));
             }
             out.push(None);
             rest = rest[end..].trim_start();
@@ -841,8 +854,7 @@ fn load(path: &Path, h: &Header, layout: &Layout, file: &[u8]) -> Result<Vec<i32
                     Some(dir) if Path::new(name).is_relative() => dir.join(name),
                     _ => PathBuf::from(name),
                 };
-                detached = std::fs::read(&target)
-                    .map_err(|e| DataError::new(e.into()).in_file(&target))?;
+                detached = input_file::read(&target, MAX_FILE_BYTES, "an NRRD data file")?;
                 (&detached, target)
             }
             None => match h.data_start {

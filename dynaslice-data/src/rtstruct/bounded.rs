@@ -35,10 +35,24 @@ use dicom_transfer_syntax_registry::{TransferSyntax, TransferSyntaxIndex, Transf
 use super::{chain, dicom, MAX_NESTING};
 use crate::error::{DataError, Result};
 
-/// Parses a whole DICOM Part 10 file (with or without its 128-byte preamble) into its data set,
-/// up to Pixel Data (an RT Structure Set has none). Errors name the element and its byte offset
-/// where they concern one; the caller adds the file.
-pub(super) fn read_object(bytes: &[u8]) -> Result<InMemDicomObject> {
+/// How a DICOM file was laid out, where it is not a plain Part 10 file (for a warning).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Layout {
+    /// A Part 10 file: `DICM` (after the preamble or at byte 0) and a file meta group.
+    Part10,
+    /// A bare data set, with no preamble, no `DICM` and no file meta group (older exports;
+    /// what DCMTK reads and pydicom reads with `force=True`), in this transfer syntax.
+    Bare(&'static str),
+}
+
+/// Largest data set a deflated file may inflate to: the cap on an RT Structure Set's size.
+const MAX_INFLATED_BYTES: u64 = super::MAX_FILE_BYTES;
+
+/// Parses a whole DICOM file into its data set, up to Pixel Data (an RT Structure Set has
+/// none): a Part 10 file with or without its 128-byte preamble, or a bare data set (see
+/// [`Layout`]); a deflated data set is inflated first (at most [`MAX_INFLATED_BYTES`]). Errors
+/// name the element and its byte offset where they concern one; the caller adds the file.
+pub(super) fn read_object(bytes: &[u8]) -> Result<(InMemDicomObject, Layout)> {
     let refusal = RefCell::new(None);
     let result = parse(bytes, &refusal);
     // A refused length is the cause of whatever error dicom-rs then reported.
@@ -46,6 +60,24 @@ pub(super) fn read_object(bytes: &[u8]) -> Result<InMemDicomObject> {
         Some(what) => Err(dicom(what)),
         None => result,
     }
+}
+
+/// The transfer syntax of a bare data set (no file meta group) starting at `bytes`, if it
+/// starts like one: an element of group 0008 (Identifying: every RT Structure Set's first
+/// group), explicit VR little endian where a VR's two letters follow the tag, else implicit.
+fn bare_data_set(bytes: &[u8]) -> Option<&'static str> {
+    let head = bytes.get(..8)?;
+    if head[..2] != [0x08, 0x00] {
+        return None;
+    }
+    let vr = [head[4], head[5]];
+    Some(
+        if VR::from_binary(vr).is_some() && vr.iter().all(u8::is_ascii_uppercase) {
+            uids::EXPLICIT_VR_LITTLE_ENDIAN
+        } else {
+            uids::IMPLICIT_VR_LITTLE_ENDIAN
+        },
+    )
 }
 
 fn unreadable(what: impl std::fmt::Display) -> DataError {
@@ -58,23 +90,64 @@ fn element(tag: Tag) -> String {
     format!("{meta}element ({:04X},{:04X})", tag.0, tag.1)
 }
 
-fn parse(bytes: &[u8], refusal: &RefCell<Option<String>>) -> Result<InMemDicomObject> {
+fn parse(bytes: &[u8], refusal: &RefCell<Option<String>>) -> Result<(InMemDicomObject, Layout)> {
     // The preamble as dicom-rs's `open_file` detects it.
     let start = if bytes.get(128..132) == Some(b"DICM") {
-        132
+        Some(132)
     } else if bytes.starts_with(b"DICM") {
-        4
+        Some(4)
     } else {
-        return Err(unreadable(
-            "no `DICM` marker at byte 0 or 128 (not a DICOM Part 10 file)",
-        ));
+        None
     };
-    let (uid, data_start) = file_meta(bytes, start, refusal)?;
+    let (uid, data_start, layout) = match start {
+        Some(start) => {
+            let (uid, data_start) = file_meta(bytes, start, refusal)?;
+            (uid, data_start, Layout::Part10)
+        }
+        None => {
+            let uid = bare_data_set(bytes).ok_or_else(|| {
+                unreadable(
+                    "no `DICM` marker at byte 0 or 128, and it does not start like a data set \
+                     (an element of group 0008)",
+                )
+            })?;
+            (uid.to_string(), 0, Layout::Bare(uid))
+        }
+    };
     let ts = TransferSyntaxRegistry
         .get(&uid)
         .ok_or_else(|| dicom(format!("unsupported transfer syntax {uid}")))?;
-    // A compressed (deflated) data set would have to be inflated first, and its declared lengths
-    // are then not bounded by the file's size.
+    if uid == uids::DEFLATED_EXPLICIT_VR_LITTLE_ENDIAN {
+        // Inflated here (raw deflate, PS3.5 A.5) and parsed as explicit VR little endian
+        // through the same bounded decoder: every declared length is then checked against the
+        // inflated size, itself capped.
+        let mut inflated = Vec::new();
+        std::io::Read::read_to_end(
+            &mut std::io::Read::take(
+                flate2::read::DeflateDecoder::new(&bytes[data_start..]),
+                MAX_INFLATED_BYTES + 1,
+            ),
+            &mut inflated,
+        )
+        .map_err(|e| {
+            unreadable(format!(
+                "transfer syntax {uid} (deflated): the data set does not inflate: {e}"
+            ))
+        })?;
+        if inflated.len() as u64 > MAX_INFLATED_BYTES {
+            return Err(dicom(format!(
+                "the deflated data set inflates to over {MAX_INFLATED_BYTES} bytes, the limit \
+                 for an RT Structure Set"
+            )));
+        }
+        let explicit = TransferSyntaxRegistry
+            .get(uids::EXPLICIT_VR_LITTLE_ENDIAN)
+            .ok_or_else(|| dicom("dicom-rs lacks explicit VR little endian".into()))?;
+        // Offsets in messages are then offsets into the inflated data set.
+        let decoder = Bounded::new(&inflated, 0, explicit, refusal)?;
+        let mut tokens = DataSetReader::new(decoder, DataSetReaderOptions::default());
+        return Ok((build_object(&mut tokens, 0, false)?, layout));
+    }
     if !(ts.is_codec_free() || ts.is_encapsulated_pixel_data()) {
         return Err(dicom(format!(
             "unsupported transfer syntax {uid} ({}): its data set is compressed",
@@ -83,7 +156,7 @@ fn parse(bytes: &[u8], refusal: &RefCell<Option<String>>) -> Result<InMemDicomOb
     }
     let decoder = Bounded::new(&bytes[data_start..], data_start, ts, refusal)?;
     let mut tokens = DataSetReader::new(decoder, DataSetReaderOptions::default());
-    build_object(&mut tokens, 0, false)
+    Ok((build_object(&mut tokens, 0, false)?, layout))
 }
 
 /// Reads the file meta group from `start` (just after `DICM`): explicit VR little endian
