@@ -95,6 +95,8 @@ use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Seq
 use crate::geometry::{Point2, Polygon};
 
 mod bounded;
+pub mod image_series;
+pub mod write;
 
 /// Files larger than this (256 MiB) are refused before parsing. Clinical structure sets are
 /// tens of megabytes; reading takes about ten times the file size in memory (the parsed decimal
@@ -209,6 +211,14 @@ fn get_text(obj: &InMemDicomObject, tag: Tag) -> Option<String> {
 /// Reads an RT Structure Set as a one-timestep sequence at time 0. See the [module docs](self)
 /// for coordinates, classes, planes, absence ([`RoiExtent`]) and what is an error.
 pub fn read(path: &Path, extent: RoiExtent) -> Result<Sequence> {
+    let obj = read_object_file(path)?;
+    let rois = parse_rois(&obj, path).map_err(|e| e.in_file(path))?;
+    build(rois, extent, path).map_err(|e| e.in_file(path))
+}
+
+/// The data set of the DICOM file at `path`, read within the limits of [`read`] (size, declared
+/// lengths, nesting); errors name the file.
+fn read_object_file(path: &Path) -> Result<InMemDicomObject> {
     let size = std::fs::metadata(path)
         .map_err(|e| DataError::new(e.into()).in_file(path))?
         .len();
@@ -229,9 +239,7 @@ pub fn read(path: &Path, extent: RoiExtent) -> Result<Sequence> {
         ))
         .in_file(path));
     }
-    let obj = in_dicom_rs(|| bounded::read_object(&bytes)).map_err(|e| e.in_file(path))?;
-    let rois = parse_rois(&obj, path).map_err(|e| e.in_file(path))?;
-    build(rois, extent, path).map_err(|e| e.in_file(path))
+    in_dicom_rs(|| bounded::read_object(&bytes)).map_err(|e| e.in_file(path))
 }
 
 /// Runs `f`, which calls dicom-rs's parsers: parts of dicom-rs assert structural invariants of
