@@ -12,7 +12,8 @@ use dynaslice_data::geometry::Polygon;
 use dynaslice_data::nifti::read_geometry;
 use dynaslice_data::rtstruct::image_series::{self, CtSeries};
 use dynaslice_data::rtstruct::write::{
-    self as rtwrite, world_to_patient, ImageSeries, RoiContours, StructureSet, Template,
+    self as rtwrite, patient_to_world, world_to_patient, ImageSeries, RoiContours, StructureSet,
+    Template,
 };
 use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::{manifest, FrameRange, Plane, Rect, TimeSeries};
@@ -276,13 +277,13 @@ fn reference_planes(
     let mut planes = Vec::new();
     let (step, series) = if let Some(ct) = ct {
         for s in &ct.slices {
-            let [row, col] = s.orientation.map(world_to_patient);
+            let [row, col] = s.orientation.map(patient_to_world);
             let extent = [
                 (s.size[1] - 1) as f64 * s.spacing[1],
                 (s.size[0] - 1) as f64 * s.spacing[0],
             ];
             planes.push(plane(
-                world_to_patient(s.image.point),
+                patient_to_world(s.image.point),
                 row,
                 col,
                 Rect {

@@ -12,7 +12,6 @@ use dynaslice_core::{Model, ModelBytes};
 use dynaslice_data::geometry::polygon::contains_even_odd;
 use dynaslice_data::rtstruct::{read, RoiExtent};
 use dynaslice_test_support::python::run_python;
-use serde_json::Value;
 use std::path::Path;
 use std::process::Command;
 
@@ -20,9 +19,10 @@ use std::process::Command;
 /// slices every 4 mm), `RS_pPP.dcm` for phases 0, 25, 50, 75 (% of the cycle) and `phases.seq`
 /// listing them. The structure sets hold only what the reader needs and the Frame of Reference
 /// and Study UIDs (no Patient ID, Study Date, …: Type 2 attributes missing, as in many
-/// exports). Prints the UIDs as JSON.
+/// exports). Prints the study, frame of reference and CT series UIDs, then the CT images', one
+/// per line.
 const FIXTURE: &str = r#"
-import json, os, sys
+import os, sys
 import numpy as np
 import pydicom
 from pydicom.dataset import Dataset, FileDataset, FileMetaDataset
@@ -126,31 +126,31 @@ for phase in (0, 25, 50, 75):
     ds.save_as(path, enforce_file_format=True)
     manifest.append("%d RS_p%02d.dcm" % (phase, phase))
 open(os.path.join(out, "phases.seq"), "w").write("\n".join(manifest) + "\n")
-print(json.dumps({"study": study, "frame": frame, "ct_series": ct_series, "ct": ct_uids}))
+print("\n".join([study, frame, ct_series] + ct_uids))
 "#;
 
-/// Reads every file of the output with pydicom and prints what the test checks, as JSON.
+/// Reads every file of the output with pydicom and prints what the test checks: per file a
+/// line `FILE sop_class sop series study modality frame ref_series types patient_id`, then per
+/// ROI a line `ROI number name r,g,b contours referenced_images` (comma-separated, `-` when
+/// none).
 const INSPECT: &str = r#"
-import json, sys
+import sys
 import pydicom
-out = []
 for path in sys.argv[1:]:
     ds = pydicom.dcmread(path)
-    rois = {r.ROINumber: r.ROIName for r in ds.StructureSetROISequence}
-    out.append({
-        "sop_class": ds.SOPClassUID, "sop": ds.SOPInstanceUID, "series": ds.SeriesInstanceUID,
-        "study": ds.StudyInstanceUID, "patient_id": ds.PatientID, "modality": ds.Modality,
-        "frame": ds.ReferencedFrameOfReferenceSequence[0].FrameOfReferenceUID,
-        "ref_series": ds.ReferencedFrameOfReferenceSequence[0].RTReferencedStudySequence[0]
-            .RTReferencedSeriesSequence[0].SeriesInstanceUID,
-        "rois": [[c.ReferencedROINumber, rois[c.ReferencedROINumber], [int(v) for v in c.ROIDisplayColor],
-                  len(c.ContourSequence),
-                  sorted({i.ContourImageSequence[0].ReferencedSOPInstanceUID
-                          for i in c.ContourSequence if "ContourImageSequence" in i})]
-                 for c in ds.ROIContourSequence],
-        "types": sorted({i.ContourGeometricType for c in ds.ROIContourSequence for i in c.ContourSequence}),
-    })
-print(json.dumps(out))
+    ref = ds.ReferencedFrameOfReferenceSequence[0]
+    types = sorted({i.ContourGeometricType for c in ds.ROIContourSequence for i in c.ContourSequence})
+    print("FILE", ds.SOPClassUID, ds.SOPInstanceUID, ds.SeriesInstanceUID, ds.StudyInstanceUID,
+          ds.Modality, ref.FrameOfReferenceUID,
+          ref.RTReferencedStudySequence[0].RTReferencedSeriesSequence[0].SeriesInstanceUID,
+          ",".join(types), repr(str(ds.PatientID)))
+    names = {r.ROINumber: r.ROIName for r in ds.StructureSetROISequence}
+    for c in ds.ROIContourSequence:
+        images = sorted({i.ContourImageSequence[0].ReferencedSOPInstanceUID
+                         for i in c.ContourSequence if "ContourImageSequence" in i})
+        print("ROI", c.ReferencedROINumber, names[c.ReferencedROINumber].replace(" ", "_"),
+              ",".join(str(int(v)) for v in c.ROIDisplayColor), len(c.ContourSequence),
+              ",".join(images) or "-")
 "#;
 
 fn dynaslice() -> Command {
@@ -184,7 +184,8 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
     let Some(uids) = run_python(&["pydicom", "numpy"], FIXTURE, &[dir.path()]) else {
         return;
     };
-    let uids: Value = serde_json::from_str(&uids).unwrap();
+    let uids: Vec<&str> = uids.lines().collect();
+    let (study, frame, ct_series, ct) = (uids[0], uids[1], uids[2], &uids[3..]);
     let model = dir.path().join("lungs.dsm");
     succeeded(
         &train_command(&dir.path().join("phases.seq"), &model, &["--steps", "300"])
@@ -230,65 +231,52 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
 
     let paths: Vec<&Path> = files.iter().map(|p| p.as_path()).collect();
     let inspected = run_python(&["pydicom"], INSPECT, &paths).expect("pydicom imported above");
-    let inspected: Vec<Value> = serde_json::from_str(&inspected).unwrap();
-    let ct: Vec<&str> = uids["ct"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap())
-        .collect();
     let mut sops = Vec::new();
-    for file in &inspected {
-        assert_eq!(file["modality"], "RTSTRUCT");
-        assert_eq!(file["sop_class"], "1.2.840.10008.5.1.4.1.1.481.3");
-        assert_eq!(file["study"], uids["study"]);
-        assert_eq!(file["frame"], uids["frame"]);
-        assert_eq!(file["ref_series"], uids["ct_series"]);
-        assert_eq!(
-            file["patient_id"], "",
-            "a Type 2 attribute the input lacks, written empty"
-        );
-        assert_eq!(file["types"], serde_json::json!(["CLOSED_PLANAR"]));
-        for key in ["sop", "series"] {
-            let uid = file[key].as_str().unwrap();
-            assert!(uid.starts_with("2.25.") && uid.len() <= 64, "{uid}");
-            sops.push(uid.to_string());
-        }
-        let rois = file["rois"].as_array().unwrap();
-        let summary: Vec<(i64, &str, Vec<i64>)> = rois
-            .iter()
-            .map(|r| {
-                let color = r[2].as_array().unwrap().iter().map(|c| c.as_i64().unwrap());
-                (
-                    r[0].as_i64().unwrap(),
-                    r[1].as_str().unwrap(),
-                    color.collect(),
-                )
-            })
-            .collect();
-        assert_eq!(
-            summary,
-            [
-                (1, "Lung_R", vec![0, 128, 255]),
-                (2, "Lung_L", vec![255, 200, 0]),
-                (7, "GTV", vec![255, 0, 0]),
-                (8, "ITV Lung_R", vec![0, 128, 255]),
-                (9, "ITV Lung_L", vec![255, 200, 0]),
-                (10, "ITV GTV", vec![255, 0, 0]),
-            ]
-        );
+    let mut rois: Vec<Vec<String>> = Vec::new();
+    let want_rois = [
+        "1 Lung_R 0,128,255",
+        "2 Lung_L 255,200,0",
+        "7 GTV 255,0,0",
+        "8 ITV_Lung_R 0,128,255",
+        "9 ITV_Lung_L 255,200,0",
+        "10 ITV_GTV 255,0,0",
+    ];
+    let check_rois = |rois: &[Vec<String>]| {
+        let summary: Vec<String> = rois.iter().map(|r| r[1..4].join(" ")).collect();
+        assert_eq!(summary, want_rois);
         for r in rois {
-            assert!(r[3].as_u64().unwrap() > 0, "ROI {r} has contours");
+            assert!(r[4].parse::<usize>().unwrap() > 0, "ROI {r:?} has contours");
             // Every contour references the CT image of its slice.
-            for uid in r[4].as_array().unwrap() {
-                assert!(
-                    ct.contains(&uid.as_str().unwrap()),
-                    "{uid} is not a CT image"
-                );
+            assert_ne!(r[5], "-", "ROI {r:?} references no image");
+            for uid in r[5].split(',') {
+                assert!(ct.contains(&uid), "{uid} is not a CT image");
             }
-            assert!(!r[4].as_array().unwrap().is_empty());
+        }
+    };
+    for line in inspected.lines() {
+        let f: Vec<String> = line.split(' ').map(str::to_string).collect();
+        if f[0] == "ROI" {
+            rois.push(f);
+            continue;
+        }
+        if !rois.is_empty() {
+            check_rois(&rois);
+            rois.clear();
+        }
+        assert_eq!(f[0], "FILE", "{line}");
+        assert_eq!(f[1], "1.2.840.10008.5.1.4.1.1.481.3");
+        assert_eq!(
+            f[4..10],
+            [study, "RTSTRUCT", frame, ct_series, "CLOSED_PLANAR", "''"],
+            "study, modality, frame, referenced series, contour types, and the Patient ID the \
+             input lacks (Type 2) written empty"
+        );
+        for uid in &f[2..4] {
+            assert!(uid.starts_with("2.25.") && uid.len() <= 64, "{uid}");
+            sops.push(uid.clone());
         }
     }
+    check_rois(&rois);
     sops.sort();
     sops.dedup();
     assert_eq!(sops.len(), 2 * files.len(), "new UIDs per file and series");

@@ -3,9 +3,10 @@
 //! planning system files them beside it.
 //!
 //! # What a written file holds
-//! - Patient and General Study modules copied from the template: Patient's Name, ID, Birth Date
-//!   and Sex, Study Instance UID, Date, Time, ID, Referring Physician's Name, Accession Number,
-//!   Study Description, and its Specific Character Set. Type 2 attributes the template lacks are
+//! - Patient, General Study and Frame of Reference modules copied from the template: Patient's
+//!   Name, ID, Birth Date and Sex, Study Instance UID, Date, Time, ID, Referring Physician's
+//!   Name, Accession Number, Study Description, Frame of Reference UID, Position Reference
+//!   Indicator, and its Specific Character Set. Type 2 attributes the template lacks are
 //!   written empty (many exports omit them; the IOD requires them present).
 //! - A new RT Series (Series Instance UID, number, description) and a new SOP Instance UID, both
 //!   `2.25.<UUID>` ([`new_uid`]); General Equipment names DynaSlice.
@@ -139,9 +140,9 @@ pub struct Template {
     pub rois: Vec<TemplateRoi>,
 }
 
-/// Patient and General Study attributes copied from the template (Type 2 ones written empty
-/// where absent; Study Description, Type 3, only where present).
-const IDENTITY: [(Tag, VR, bool); 10] = [
+/// Patient, General Study and Frame of Reference attributes copied from the template (Type 2
+/// ones written empty where absent; Study Description, Type 3, only where present).
+const IDENTITY: [(Tag, VR, bool); 11] = [
     (tags::PATIENT_NAME, VR::PN, true),
     (tags::PATIENT_ID, VR::LO, true),
     (tags::PATIENT_BIRTH_DATE, VR::DA, true),
@@ -152,6 +153,7 @@ const IDENTITY: [(Tag, VR, bool); 10] = [
     (tags::STUDY_ID, VR::SH, true),
     (tags::ACCESSION_NUMBER, VR::SH, true),
     (tags::STUDY_DESCRIPTION, VR::LO, false),
+    (tags::POSITION_REFERENCE_INDICATOR, VR::LO, true),
 ];
 
 impl Template {
@@ -404,6 +406,12 @@ fn encode(
         }
     }
     o.put(text(tags::STUDY_INSTANCE_UID, VR::UI, &template.study_uid));
+    // Frame of Reference module (part of the IOD since DICOM 2023).
+    o.put(text(
+        tags::FRAME_OF_REFERENCE_UID,
+        VR::UI,
+        &template.frame_of_reference_uid,
+    ));
     // RT Series.
     o.put(text(tags::MODALITY, VR::CS, "RTSTRUCT"));
     o.put(text(tags::SERIES_INSTANCE_UID, VR::UI, &new_uid()?));
