@@ -12,8 +12,8 @@ use dynaslice_data::geometry::Polygon;
 use dynaslice_data::nifti::read_geometry;
 use dynaslice_data::rtstruct::image_series::{self, CtSeries};
 use dynaslice_data::rtstruct::write::{
-    self as rtwrite, patient_to_world, world_to_patient, ImageSeries, RoiContours, StructureSet,
-    Template,
+    self as rtwrite, patient_to_world, world_to_patient, ImageSeries, PlanarContour, RoiContours,
+    StructureSet, Template,
 };
 use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::{manifest, FrameRange, Plane, Rect, TimeSeries};
@@ -422,7 +422,7 @@ fn contour_planes<F: PlaneField>(
     field: &F,
     planes: &[Plane],
     options: &PlanarOptions,
-) -> Result<Vec<Vec<([f64; 3], Vec<[f64; 3]>)>>> {
+) -> Result<Vec<Vec<PlanarContour>>> {
     let mut out = vec![Vec::new(); field.channels()];
     for plane in planes {
         let per_channel = contour_plane(field, plane, options)?;

@@ -7,10 +7,11 @@
 
 mod common;
 
-use common::{succeeded, train_command};
+use common::{succeeded, train_command, write_sequence};
 use dynaslice_core::{Model, ModelBytes};
 use dynaslice_data::geometry::polygon::contains_even_odd;
 use dynaslice_data::rtstruct::{read, RoiExtent};
+use dynaslice_test_support::fixtures::two_organ_model;
 use dynaslice_test_support::python::run_python;
 use std::path::Path;
 use std::process::Command;
@@ -282,7 +283,7 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
     assert_eq!(sops.len(), 2 * files.len(), "new UIDs per file and series");
 
     // Our reader reads every file back; on each of its planes the contours' regions are the
-    // model's Eq. 11 labels (sampled every 0.5 mm), and each ITV holds its class's region.
+    // model's Eq. 11 labels (sampled every 1 mm), and each ITV holds its class's region.
     let bytes = ModelBytes::read(&model).unwrap();
     let model = bytes.model().unwrap();
     for (f, &t) in files.iter().zip(&times) {
@@ -290,6 +291,7 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
         let names: Vec<&str> = seq.classes().iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names[..3], ["Lung_R", "Lung_L", "GTV"]);
         let (iou, covered) = compare(&model, &seq, t);
+        println!("t = {t}: IoU {iou:?}, ITV coverage {covered:?}");
         for k in 0..3 {
             assert!(
                 iou[k] >= 0.98,
@@ -311,14 +313,14 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
 
 /// Per class (0..3, the model's channels): the IoU between the regions of `seq`'s contours
 /// and the model's Eq. 11 labels at time `t`, and the fraction of the class's drawn region that
-/// its ITV (class k + 3) holds, over every plane of `seq`, on a 0.5 mm grid.
+/// its ITV (class k + 3) holds, over every plane of `seq`, on a 1 mm grid.
 fn compare(model: &Model, seq: &dynaslice_data::Sequence, t: f64) -> ([f64; 3], [f64; 3]) {
     let (mut both, mut either) = ([0usize; 3], [0usize; 3]);
     let (mut drawn_total, mut in_itv) = ([0usize; 3], [0usize; 3]);
     let (lo, hi) = model.domain().bounds();
     for plane in &seq.frames()[0].planes {
         let r = plane.box_roi(lo.map(f64::from), hi.map(f64::from));
-        let step = 0.5;
+        let step = 1.0;
         let (nu, nv) = (
             ((r.max[0] - r.min[0]) / step) as usize,
             ((r.max[1] - r.min[1]) / step) as usize,
@@ -355,4 +357,30 @@ fn compare(model: &Model, seq: &dynaslice_data::Sequence, t: f64) -> ([f64; 3], 
         iou,
         std::array::from_fn(|k| in_itv[k] as f64 / drawn_total[k] as f64),
     )
+}
+
+#[test]
+fn a_like_file_that_is_not_an_rt_structure_set_is_refused_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let like = write_sequence(dir.path()).with_file_name("ball_0.csl");
+    let model = dir.path().join("m.dsm");
+    std::fs::write(&model, two_organ_model(true)).unwrap();
+    let out = dir.path().join("rs");
+    let run = dynaslice()
+        .args([
+            "rtstruct",
+            model.to_str().unwrap(),
+            "--like",
+            like.to_str().unwrap(),
+        ])
+        .args(["--times", "0:0.8:2", "-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        err.contains("ball_0.csl") && err.contains("not a readable DICOM file"),
+        "{err}"
+    );
+    assert!(!out.exists(), "no output folder for a refused run");
 }

@@ -213,7 +213,7 @@ fn refine<F: PlaneField>(
             };
             let inside = |(i, j): (f64, f64)| {
                 (i >= 0.0 && j >= 0.0)
-                    .then(|| (i as usize, j as usize))
+                    .then_some((i as usize, j as usize))
                     .filter(|&(i, j)| i < grid.n[0] && j < grid.n[1])
                     .map(|(i, j)| (grid.node(i, j), sample(i, j) < 0.0))
             };

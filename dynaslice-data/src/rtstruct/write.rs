@@ -301,6 +301,9 @@ impl Template {
     }
 }
 
+/// A closed contour: the unit normal of its plane and its points (at least 3), patient LPS mm.
+pub type PlanarContour = ([f64; 3], Vec<[f64; 3]>);
+
 /// One structure to write: its definition and its closed contours, each a polygon of patient
 /// LPS points (mm) on one plane, with the unit normal (LPS) of that plane.
 #[derive(Debug, Clone)]
@@ -316,7 +319,7 @@ pub struct RoiContours {
     /// ROI Description (Type 3), where wanted (e.g. how an ITV was made).
     pub description: Option<String>,
     /// Closed contours: (plane normal, points), LPS mm, at least 3 points each.
-    pub contours: Vec<([f64; 3], Vec<[f64; 3]>)>,
+    pub contours: Vec<PlanarContour>,
 }
 
 /// A structure set to write.
@@ -446,11 +449,7 @@ fn encode(
     if let (Some((class, instance)), Some(series_uid), false) =
         (&series.study, &series.series_uid, series.images.is_empty())
     {
-        let images = series
-            .images
-            .iter()
-            .map(|im| image_item(im))
-            .collect::<Vec<_>>();
+        let images = series.images.iter().map(image_item).collect::<Vec<_>>();
         let s = InMemDicomObject::from_element_iter([
             text(tags::SERIES_INSTANCE_UID, VR::UI, series_uid),
             seq(tags::CONTOUR_IMAGE_SEQUENCE, images),
