@@ -5,7 +5,8 @@
 //!
 //! 1. The field is sampled on a regular grid over the rectangle (spacing at most
 //!    [`PlanarOptions::step`]) and clipped to the rectangle, F = max(F, d_rect), so that a
-//!    region reaching the rectangle's edge is closed along it.
+//!    region reaching the rectangle's edge is closed along it (a region covering a corner of the
+//!    rectangle has that corner cut by half a grid cell).
 //! 2. Marching squares ([`dynaslice_data::geometry::marching_squares`]) gives closed, nested,
 //!    non-crossing contours: outer boundaries counter-clockwise, holes clockwise.
 //! 3. Every vertex lies on a grid edge whose ends have opposite signs; bisection on that edge
@@ -399,11 +400,13 @@ mod tests {
 
     #[test]
     fn a_region_reaching_the_edge_is_closed_along_it_and_holes_run_clockwise() {
-        // A large sphere covers the whole rectangle but a small one is cut out of it through the
-        // partition: class 0 has a hole where class 1 is.
+        // A large sphere whose cut covers the whole rectangle (f⁰ = −5 at the centre) and a
+        // smaller one that is more inside near the centre: through the partition, class 1 is
+        // the disc where f¹ < f⁰, |p| − 10 < √(|p|² + 95²) − 100, i.e. |p| < 925/180, and class 0
+        // the square with that hole.
         let field = Analytic::new(vec![
-            Shape::sphere([0.0; 3], 100.0, 0.0),
-            Shape::sphere([0.0; 3], 5.0, 0.0),
+            Shape::sphere([0.0, 0.0, 95.0], 100.0, 0.0),
+            Shape::sphere([0.0; 3], 10.0, 0.0),
         ]);
         let options = PlanarOptions {
             step: 0.5,
@@ -414,8 +417,10 @@ mod tests {
         assert_eq!(out[0].len(), 2, "the square boundary and the hole");
         let mut areas: Vec<f64> = out[0].iter().map(|p| signed_area(p)).collect();
         areas.sort_by(f64::total_cmp);
-        assert!((areas[1] - 400.0).abs() < 1e-6, "square {}", areas[1]);
-        let disc = std::f64::consts::PI * 25.0;
+        // The rectangle's corners are cut by half a grid cell each (the contour runs between
+        // the corner node's two neighbours): 4 · 0.5² / 2 = 0.5 mm².
+        assert!((areas[1] - 399.5).abs() < 1e-5, "square {}", areas[1]);
+        let disc = std::f64::consts::PI * (925.0f64 / 180.0).powi(2);
         assert!(areas[0] < 0.0 && (areas[0] + disc).abs() < 0.01 * disc);
         assert_eq!(out[1].len(), 1);
         assert!((signed_area(&out[1][0]) - disc).abs() < 0.01 * disc);
