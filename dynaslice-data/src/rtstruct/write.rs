@@ -597,7 +597,8 @@ mod tests {
         assert_eq!(ds(-0.00001).unwrap(), "0");
         assert_eq!(ds(12.5).unwrap(), "12.5");
         assert_eq!(ds(-123456.78905).unwrap(), "-123456.7891");
-        assert!(ds(1e13).is_err());
+        assert_eq!(ds(1e13).unwrap(), "10000000000000");
+        assert!(ds(1e17).is_err());
         assert!(ds(f64::NAN).is_err());
     }
 
