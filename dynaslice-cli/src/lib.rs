@@ -22,6 +22,7 @@ mod picture;
 mod progress;
 mod query;
 mod report;
+mod rtstruct;
 pub mod samples;
 mod synth;
 mod times;
@@ -68,6 +69,9 @@ enum Command {
     /// Draw a model's labels and the input contours on an input plane at several times, or with
     /// --3d its class surfaces, shaded, at several times (PNG).
     Picture(picture::Args),
+    /// Write the model's structures as DICOM RT Structure Sets, one per time, on the planes of a
+    /// planning CT or reference image, in an input RT Structure Set's patient and frame.
+    Rtstruct(rtstruct::Args),
     /// Evaluate a model at one world point and time: f, ∇ₓf, ∂f/∂t and the Eq. 11 label.
     Query(query::Args),
     /// Write the synthetic 4D benchmark: training slices (native JSON) and ground-truth NIfTI.
@@ -103,6 +107,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Report(args) => report::run(args),
         Command::Picture(args) => picture::run(args),
         Command::Query(args) => query::run(args),
+        Command::Rtstruct(args) => rtstruct::run(args),
         Command::Train(args) => train::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Completions(args) => completions::run(args),

@@ -10,7 +10,7 @@
 //! library's output under a temporary name and renames it into place, so a failed run leaves
 //! neither a partial file nor a damaged old one.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use dynaslice_data::atomic::{self, Claim};
 use std::collections::HashSet;
 use std::ffi::OsStr;

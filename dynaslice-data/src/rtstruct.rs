@@ -94,6 +94,8 @@ use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Seq
 use crate::geometry::{Point2, Polygon};
 
 mod bounded;
+pub mod image_series;
+pub mod write;
 
 /// Files larger than this (256 MiB) are refused before parsing. Clinical structure sets are
 /// tens of megabytes; reading takes about ten times the file size in memory (the parsed decimal
@@ -215,22 +217,7 @@ pub fn read(path: &Path, extent: RoiExtent) -> Result<Sequence> {
 /// Reference Sequence (3006,0010), else the ROIs' Referenced Frame of Reference UID
 /// (3006,0024)), where the file gives one.
 pub fn read_with_frame(path: &Path, extent: RoiExtent) -> Result<(Sequence, Option<String>)> {
-    // Read whole (the size is capped), so that the parse can see how many bytes are left.
-    let bytes = input_file::read(path, MAX_FILE_BYTES, "an RT Structure Set")?;
-    let (obj, layout) =
-        in_dicom_rs(|| bounded::read_object(&bytes)).map_err(|e| e.in_file(path))?;
-    if let bounded::Layout::Bare(uid) = layout {
-        log::warn!(
-            "{}: no DICOM preamble, `DICM` marker or file meta group (an older export); read as \
-             a bare data set in {}",
-            path.display(),
-            if uid == dicom_dictionary_std::uids::EXPLICIT_VR_LITTLE_ENDIAN {
-                "explicit VR little endian"
-            } else {
-                "implicit VR little endian"
-            }
-        );
-    }
+    let obj = read_object_file(path)?;
     let rois = parse_rois(&obj, path).map_err(|e| e.in_file(path))?;
     let sequence = build(rois, extent, path).map_err(|e| e.in_file(path))?;
     Ok((sequence, frame_of_reference(&obj)))
@@ -252,6 +239,27 @@ fn frame_of_reference(obj: &InMemDicomObject) -> Option<String> {
         })
     };
     referenced.or_else(of_rois).filter(|uid| !uid.is_empty())
+}
+
+/// The data set of the DICOM file at `path`, read within the limits of [`read`] (size, declared
+/// lengths, nesting); errors name the file. A bare data set (no preamble, `DICM` or meta group)
+/// is read with a warning.
+fn read_object_file(path: &Path) -> Result<InMemDicomObject> {
+    // Read whole (the size is capped), so that the parse can see how many bytes are left.
+    let bytes = input_file::read(path, MAX_FILE_BYTES, "an RT Structure Set")?;
+    let (obj, layout) =
+        in_dicom_rs(|| bounded::read_object(&bytes)).map_err(|e| e.in_file(path))?;
+    if let bounded::Layout::Bare(uid) = layout {
+        log::warn!(
+            "{}: no DICOM preamble, `DICM` marker or file meta group (an older export); read as \
+             a bare data set in {}",
+            path.display(),
+            if uid == dicom_dictionary_std::uids::EXPLICIT_VR_LITTLE_ENDIAN {
+                "explicit VR little endian"
+            } else {
+                "implicit VR little endian"
+            }
+    Ok(obj)
 }
 
 /// Runs `f`, which calls dicom-rs's parsers: parts of dicom-rs assert structural invariants of

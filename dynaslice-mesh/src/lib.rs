@@ -9,6 +9,8 @@
 //! 3. [`polygonise`]: marching tetrahedra on the Kuhn subdivision (manifold, no ambiguities).
 //! 4. [`vertices`]: Newton steps onto F = 0 along ∇ₓF; normals and normal velocity.
 //! 5. [`geometry`]: the [`Mesh`] type, volume, area, topology checks; [`io`]: file formats.
+//!
+//! [`planar`] contours the same fields on a plane (closed polygons, for RT Structure Sets).
 
 #![warn(missing_docs)]
 
@@ -18,6 +20,7 @@ pub mod field;
 pub mod geometry;
 pub mod io;
 pub mod lattice;
+pub mod planar;
 pub mod polygonise;
 pub mod sampling;
 pub mod vertices;
