@@ -1,5 +1,6 @@
 //! `dynaslice info MODEL`.
 
+use super::console::outln;
 use super::model::ModelFile;
 use anyhow::Result;
 use dynaslice_core::Weights;
@@ -25,36 +26,41 @@ pub fn run(args: Args) -> Result<()> {
         Weights::F32(_) => "f32",
         Weights::F16(_) => "f16",
     };
-    println!("model        {}", args.model.display());
-    println!(
+    outln!("model        {}", args.model.display())?;
+    outln!(
         "size         {} bytes ({} weights, {dtype})",
         file.len(),
         layout.param_count()
-    );
-    println!("sine layers  {:?}", layout.widths());
-    println!("classes      {}", layout.num_classes());
-    println!(
+    )?;
+    outln!("sine layers  {:?}", layout.widths())?;
+    outln!("classes      {}", layout.num_classes())?;
+    outln!(
         "cost         {} multiply-adds per point for f (x4 with ∇ₓf)",
         layout.macs_per_point()
-    );
-    println!(
+    )?;
+    outln!(
         "bounds       [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
-        lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
-    );
-    println!("time range   {t0} .. {t1}");
-    println!("ω_t^max      {} (normalised time)", model.omega_t_max());
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2]
+    )?;
+    outln!("time range   {t0} .. {t1}")?;
+    outln!("ω_t^max      {} (normalised time)", model.omega_t_max())?;
     for (k, class) in model.classes().enumerate() {
-        println!(
+        outln!(
             "class {:<6} {:?} (source label {})",
             k + 1,
             class.name,
             class.label
-        );
+        )?;
     }
     if !model.metadata().is_empty() {
-        println!("metadata");
+        outln!("metadata")?;
         for line in model.metadata().lines() {
-            println!("  {line}");
+            outln!("  {line}")?;
         }
     }
     Ok(())

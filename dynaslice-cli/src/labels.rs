@@ -2,6 +2,7 @@
 //! `--times`): the model's Eq. 11 label volume, written frame by frame (docs/metrics.md), with
 //! its colour tables, or as 3D Slicer segmentations and their sequence.
 
+use super::console::errln;
 use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
 use super::options::{
@@ -165,7 +166,7 @@ pub fn run(a: Args) -> Result<()> {
                 match &bar {
                     Some(bar) => bar.set_position(f as u64 + 1),
                     None if last_log.elapsed() >= Duration::from_secs(10) => {
-                        eprintln!(
+                        errln!(
                             "frame {}/{frames}, {:.0} s",
                             f + 1,
                             start.elapsed().as_secs_f64()
@@ -180,12 +181,12 @@ pub fn run(a: Args) -> Result<()> {
         bar.finish_and_clear();
     }
     let (volume, companions) = describe(&files);
-    eprintln!(
+    errln!(
         "wrote {volume}: {nx}×{ny}×{nz} voxels × {frames} frame(s) in {:.1} s",
         start.elapsed().as_secs_f64()
     );
     for companion in companions {
-        eprintln!("  and {companion}");
+        errln!("  and {companion}");
     }
     // The class volumes of the first and last frame, a quick plausibility check, and the
     // colour each class has in every output.
@@ -193,7 +194,7 @@ pub fn run(a: Args) -> Result<()> {
     let colors = file.class_colors();
     for ((k, class), color) in model.classes().enumerate().zip(colors) {
         let v = |f: usize| counts[f][k + 1] as f64 * voxel;
-        eprintln!(
+        errln!(
             "  label {} {:?} {}: {:.6} at t = {}, {:.6} at t = {} (world units³)",
             class.label,
             class.name,

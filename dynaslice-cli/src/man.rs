@@ -1,11 +1,11 @@
 //! `dynaslice man [-o DIR]`: manual pages (roff) generated from the command line's own
 //! definitions (clap_mangen), so they never disagree with `--help`.
 
+use super::console::{errln, out_bytes};
 use super::output::Plan;
 use anyhow::{Context, Result};
 use clap::CommandFactory;
 use dynaslice_data::atomic::write_atomically;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `dynaslice man`.
@@ -29,14 +29,14 @@ pub fn run(a: Args) -> Result<()> {
     let Some(dir) = a.output else {
         let mut page = Vec::new();
         clap_mangen::Man::new(cmd).render(&mut page)?;
-        std::io::stdout().write_all(&page)?;
+        out_bytes(&page)?;
         return Ok(());
     };
     Plan::new(std::iter::empty::<PathBuf>(), true).directory("-o", &dir)?;
     std::fs::create_dir_all(&dir)
         .with_context(|| format!("cannot create directory {}", dir.display()))?;
     let written = write_pages(cmd, &dir)?;
-    eprintln!("wrote {written} pages to {}", dir.display());
+    errln!("wrote {written} pages to {}", dir.display());
     Ok(())
 }
 

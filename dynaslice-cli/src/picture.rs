@@ -1,6 +1,7 @@
 //! `dynaslice picture MODEL INPUT -o FIG.png`: predicted labels and input contours on a plane.
 //! `dynaslice picture --3d MODEL -o FIG.png`: the classes' surfaces at a few times, shaded.
 
+use super::console::errln;
 use super::input::{self, InputArgs};
 use super::mesh::surfaces_at;
 use super::model::ModelFile;
@@ -10,6 +11,7 @@ use anyhow::{bail, Context, Result};
 use dynaslice_data::atomic::write_via;
 use dynaslice_figures::picture::{plane_labels, Panel};
 use dynaslice_figures::render3d::{self, Camera, RenderOptions, SurfacePanel};
+use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_mesh::Options;
 use std::path::PathBuf;
 
@@ -66,7 +68,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = View::Oblique, requires = "three_d")]
     view: View,
     /// --3d: meshing lattice cells along the longest axis of the model's bounds.
-    #[arg(long, default_value_t = 96, value_parser = count(1, MAX_MESH_RESOLUTION),
+    #[arg(long, default_value_t = 96, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION),
           requires = "three_d")]
     resolution: u32,
     /// --3d: side of each panel in pixels.
@@ -166,7 +168,7 @@ fn run_3d(a: Args) -> Result<()> {
         resolution: a.resolution,
         ..Options::default()
     };
-    let report = |line: String| eprintln!("{line}");
+    let report = |line: String| errln!("{line}");
     let meshes = times
         .iter()
         .map(|&t| Ok(surfaces_at(&model, t, &channels, &options, report)?.meshes))
@@ -187,7 +189,7 @@ fn run_3d(a: Args) -> Result<()> {
     write_via(&a.output, |tmp| {
         render3d::render_surfaces(tmp, &panels, &classes, &options)
     })?;
-    eprintln!("wrote {}", a.output.display());
+    errln!("wrote {}", a.output.display());
     Ok(())
 }
 
@@ -266,6 +268,6 @@ pub fn run(a: Args) -> Result<()> {
     write_via(&a.output, |tmp| {
         plane_labels(&model, &seq, plane, &panels, tmp)
     })?;
-    eprintln!("wrote {}", a.output.display());
+    errln!("wrote {}", a.output.display());
     Ok(())
 }

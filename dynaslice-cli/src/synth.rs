@@ -1,5 +1,6 @@
 //! `dynaslice synth -o DIR [--shape NAME|all]`: the synthetic 4D benchmark.
 
+use super::console::outln;
 use super::memory::{self, MemoryArgs};
 use super::options::{
     count, MAX_PLANE_RESOLUTION, MAX_SYNTH_PLANES, MAX_SYNTH_TIMESTEPS, MAX_VOLUME_RESOLUTION,
@@ -96,6 +97,9 @@ pub fn run(args: Args) -> Result<()> {
         std::fs::create_dir(dir)
             .with_context(|| format!("cannot create directory {}", dir.display()))?;
     }
+    // A failed listing (the reader of standard output gone) stops the listing, not the
+    // remaining data sets.
+    let mut listed = Ok(());
     for shape in shapes {
         // Deleted with its contents unless renamed away (any error, or a panic).
         let tmp = tempfile::Builder::new()
@@ -111,9 +115,12 @@ pub fn run(args: Args) -> Result<()> {
         }
         std::fs::rename(tmp.path().join(shape.name()), &target)
             .with_context(|| format!("cannot rename the data set to {}", target.display()))?;
-        for f in files {
+        for f in &files {
+            if listed.is_err() {
+                break;
+            }
             let moved = |p: &std::path::Path| target.join(p.file_name().unwrap_or_default());
-            println!(
+            listed = outln!(
                 "{:<9} {}  {}",
                 f.shape.name(),
                 moved(&f.slices).display(),
@@ -121,5 +128,5 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
-    Ok(())
+    Ok(listed?)
 }
