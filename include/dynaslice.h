@@ -97,9 +97,10 @@ extern "C" {
 /**
  * Loads the model file at `path` into a new model stored in `*out`.
  *
- * `path` is a NUL-terminated path (bytes as given on POSIX, UTF-8 elsewhere). Returns 0, or a
- * negative `DS_E_*` code with `*out` set to NULL (when `out` itself is not NULL). Free the model
- * with `ds_model_free`.
+ * `path` is a NUL-terminated path (bytes as given on POSIX, UTF-8 elsewhere) of a regular file:
+ * a FIFO, device or directory fails with `DS_E_IO` before it is opened (opening a FIFO would
+ * block). Returns 0, or a negative `DS_E_*` code with `*out` set to NULL (when `out` itself is
+ * not NULL). Free the model with `ds_model_free`.
  *
  * # Safety
  * `path` must be NULL or a NUL-terminated string; `out` NULL or a writable `DsModel *`.
@@ -182,11 +183,13 @@ int ds_bounds(const DsModel *model, float *min_xyz, float *max_xyz);
 /**
  * Evaluates the K signed distances f(x, t) at world point `xyz` (3 floats) and world time `t`
  * into `sdf[0..K]` (world units; negative inside class k). `sdf` holds `sdf_len >= K` floats;
- * entries past K are left untouched. A NaN or infinite query gives NaN distances (and returns 0).
+ * entries past K are left untouched. Every finite query gives finite distances, however far
+ * outside the model's domain; a NaN or infinite query gives NaN distances (and returns 0).
+ * `DS_E_INVALID_ARGUMENT` when `sdf` overlaps `xyz`.
  *
  * # Safety
  * `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `sdf` NULL or
- * `sdf_len` writable floats.
+ * `sdf_len` writable floats not overlapping `xyz`.
  */
 int ds_eval(const DsModel *model, const float *xyz, float t, float *sdf, size_t sdf_len);
 
@@ -196,7 +199,7 @@ int ds_eval(const DsModel *model, const float *xyz, float t, float *sdf, size_t 
  * in 1..=K.
  *
  * # Safety
- * As `ds_eval`, and `grad` NULL or `3 * K` writable floats not overlapping `sdf`.
+ * As `ds_eval`, and `grad` NULL or `3 * K` writable floats overlapping neither `xyz` nor `sdf`.
  */
 int ds_eval_grad(const DsModel *model,
                  const float *xyz,
@@ -211,7 +214,7 @@ int ds_eval_grad(const DsModel *model,
  * −(∂f/∂t)/‖∇ₓf‖.
  *
  * # Safety
- * As `ds_eval_grad`, and `dfdt` NULL or `sdf_len` writable floats overlapping neither output.
+ * As `ds_eval_grad`, and `dfdt` NULL or `sdf_len` writable floats overlapping no other buffer.
  */
 int ds_eval_jacobian(const DsModel *model,
                      const float *xyz,
@@ -227,7 +230,7 @@ int ds_eval_jacobian(const DsModel *model,
  *
  * # Safety
  * `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `label` NULL or a
- * writable `uint32_t`.
+ * writable `uint32_t` not overlapping `xyz`.
  */
 int ds_label(const DsModel *model, const float *xyz, float t, uint32_t *label);
 

@@ -1,5 +1,6 @@
 //! `dynaslice bench`: training-step throughput against this machine's sgemm peak.
 
+use super::console::outln;
 use super::options::{count, MAX_REPEATS, MAX_THREADS};
 use super::samples::SampleArgs;
 use super::widths::check_widths;
@@ -41,22 +42,24 @@ pub fn run(a: Args) -> Result<()> {
     }
     let counts = a.samples.counts();
     let peak = bench::sgemm_peak(a.threads, a.repeats);
-    println!(
+    outln!(
         "sgemm peak (gemm crate, 1024³): {:.1} GFLOP/s on 1 thread, {:.1} on {} threads",
-        peak.single, peak.all, a.threads
-    );
-    println!(
+        peak.single,
+        peak.all,
+        a.threads
+    )?;
+    outln!(
         "training step, widths {:?}, {}; {} threads:",
         a.widths,
         counts.describe(),
         a.threads
-    );
+    )?;
     let base_k = if a.classes.contains(&3) {
         3
     } else {
         a.classes[0]
     };
-    println!(
+    outln!(
         "{:>3} {:>13} {:>25} {:>9} {:>10} {:>12} {:>9} {:>8} {:>7} {:>7}",
         "K",
         "samples",
@@ -68,7 +71,7 @@ pub fn run(a: Args) -> Result<()> {
         "of peak",
         "hinge",
         format!("× K={base_k}")
-    );
+    )?;
     let mut base = None;
     let mut rows = Vec::new();
     // The base K first, so every row can be compared with it.
@@ -93,7 +96,7 @@ pub fn run(a: Args) -> Result<()> {
                 (true, Some(b)) => format!("{:.2}", r.seconds / b),
                 _ => String::new(),
             };
-            println!(
+            outln!(
                 "{:>3} {:>13} {:>24}{mark} {:>9} {:>10.4} {:>12.0} {:>9.1} {:>7.1}% {:>6.0}% {:>7}",
                 r.num_classes,
                 format!(
@@ -110,7 +113,7 @@ pub fn run(a: Args) -> Result<()> {
                 100.0 * r.gflops / peak.all,
                 100.0 * r.active_contour,
                 ratio
-            );
+            )?;
         }
     }
     Ok(())

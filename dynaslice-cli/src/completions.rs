@@ -1,6 +1,7 @@
 //! `dynaslice completions SHELL`: the shell's completion script for every subcommand and
 //! option, on standard output (clap_complete).
 
+use super::console::out_bytes;
 use anyhow::Result;
 use clap::CommandFactory;
 use clap_complete::Shell;
@@ -20,6 +21,9 @@ pub struct Args {
 /// Runs `dynaslice completions`: writes the script to standard output.
 pub fn run(a: Args) -> Result<()> {
     let mut cmd = super::Cli::command();
-    clap_complete::generate(a.shell, &mut cmd, "dynaslice", &mut std::io::stdout());
+    // Rendered in memory first: clap_complete panics when its writer fails (a closed pipe).
+    let mut script = Vec::new();
+    clap_complete::generate(a.shell, &mut cmd, "dynaslice", &mut script);
+    out_bytes(&script)?;
     Ok(())
 }

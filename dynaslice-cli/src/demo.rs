@@ -1,11 +1,15 @@
 //! `dynaslice demo`: the main job on the built-in default data, as a script of ordinary
 //! subcommands (each printed before it runs, so the demo also shows how to use the tool).
 
+use super::console::errln;
 use super::options::{
     count, positive_f64_to, MAX_CHAMFER_SAMPLES, MAX_MESH_RESOLUTION, MAX_MINUTES, MAX_STEPS,
 };
-use super::run_line;
+use super::widths::check_widths;
+use super::{parse_line, run_line};
 use anyhow::{Context, Result};
+use dynaslice_core::format::MAX_WIDTH;
+use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -23,11 +27,12 @@ pub struct Args {
     #[arg(long, value_parser = positive_f64_to(MAX_MINUTES), allow_negative_numbers = true)]
     minutes: Option<f64>,
     /// Widths of the sine layers.
-    #[arg(long, default_value = "256,256,256,256")]
-    widths: String,
+    #[arg(long, value_delimiter = ',', default_value = "256,256,256,256",
+          value_parser = count(1, MAX_WIDTH as u32))]
+    widths: Vec<u32>,
     /// Mesh resolution (cells along the longest axis), also of the 3D picture's meshes and the
     /// cells per axis of the 3D IoU grid; the exact shapes are meshed at twice this for the Chamfer distance.
-    #[arg(long, default_value_t = 96, value_parser = count(1, MAX_MESH_RESOLUTION / 2))]
+    #[arg(long, default_value_t = 96, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION / 2))]
     resolution: u32,
     /// Area-uniform samples per surface for the Chamfer distance.
     #[arg(long, default_value_t = dynaslice_metrics::chamfer::DEFAULT_SAMPLES,
@@ -40,6 +45,8 @@ pub struct Args {
 /// `--output`.
 pub fn run(a: Args) -> Result<()> {
     let start = Instant::now();
+    check_widths(&a.widths)?;
+    let widths: Vec<String> = a.widths.iter().map(u32::to_string).collect();
     // The subcommands write into existing folders only; the demo's own folder it makes.
     std::fs::create_dir_all(&a.output)
         .with_context(|| format!("cannot create directory {}", a.output.display()))?;
@@ -68,7 +75,7 @@ pub fn run(a: Args) -> Result<()> {
             a.minutes
                 .map(|m| vec!["--minutes".into(), m.to_string()])
                 .unwrap_or_default(),
-            vec!["--widths".into(), a.widths.clone(), "--force".into()],
+            vec!["--widths".into(), widths.join(","), "--force".into()],
         ]
         .concat(),
         vec![
@@ -139,11 +146,16 @@ pub fn run(a: Args) -> Result<()> {
             out("surfaces.png"),
         ],
     ];
-    eprintln!(
+    // Every line's options are checked before the first one runs: a bad value fails at once,
+    // not after synthesis and training.
+    for line in &lines {
+        parse_line(line)?;
+    }
+    errln!(
         "demo: {} commands; training runs {} steps of a {} network, {}",
         lines.len(),
         a.steps,
-        a.widths,
+        widths.join(","),
         match a.minutes {
             Some(m) => format!("stopping early if {m} minutes pass first (--minutes)"),
             None => "all of them (no time cap; --minutes sets one)".to_string(),
@@ -152,7 +164,7 @@ pub fn run(a: Args) -> Result<()> {
     for line in &lines {
         run_line(line)?;
     }
-    eprintln!(
+    errln!(
         "\ndemo finished in {:.0} s; outputs in {}: model.dsm (+ .loss.png), meshes/series.pvd (open in ParaView), \
          labels.nii.gz (on the ground truth's grid, 37 frames), volumes.csv (+ .png), \
          metrics.csv, figure.png, surfaces.png (the chambers in 3D at 4 times)",

@@ -1,6 +1,7 @@
 //! `dynaslice eval …`: accuracy of a model against ground truth (synthetic benchmark, reference
 //! mesh), on held-out slices, and its class volumes over time. Definitions: docs/metrics.md.
 
+use super::console::{errln, outln};
 use super::input::{self, InputArgs};
 use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
@@ -20,6 +21,7 @@ use dynaslice_data::native;
 use dynaslice_data::synth::{BenchmarkOptions, Shape};
 use dynaslice_data::TimeSeries;
 use dynaslice_figures::plot::volume_chart;
+use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_metrics::benchmark::{Resolution, Scores, Truth};
 use dynaslice_metrics::chamfer::{self, DEFAULT_SAMPLES};
 use dynaslice_metrics::heldout::{self, Split, DEFAULT_PIXELS};
@@ -75,10 +77,10 @@ struct SyntheticArgs {
     #[arg(long, default_value_t = 64, value_parser = count(1, MAX_IOU_RESOLUTION))]
     resolution: usize,
     /// Lattice cells per axis for the model's meshes.
-    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = 128, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     mesh_resolution: u32,
     /// Lattice cells per axis for the exact shapes' meshes.
-    #[arg(long, default_value_t = 256, value_parser = count(1, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = 256, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     truth_resolution: u32,
     /// Area-uniform samples per surface for the Chamfer distance.
     #[arg(long, default_value_t = DEFAULT_SAMPLES, value_parser = count(1, MAX_CHAMFER_SAMPLES))]
@@ -106,7 +108,7 @@ struct ReferenceArgs {
     #[arg(long, default_value_t = 1, value_parser = count(1, MAX_CLASSES))]
     class: usize,
     /// Lattice cells along the longest axis of the model's domain.
-    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = 128, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     mesh_resolution: u32,
     /// Area-uniform samples per surface.
     #[arg(long, default_value_t = DEFAULT_SAMPLES, value_parser = count(1, MAX_CHAMFER_SAMPLES))]
@@ -172,7 +174,7 @@ struct VolumeArgs {
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Lattice cells along the longest axis of the model's domain.
-    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = 128, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     resolution: u32,
     /// Output CSV (.csv); the chart is written beside it as .png.
     #[arg(short, long)]
@@ -251,11 +253,17 @@ fn synthetic(a: SyntheticArgs) -> Result<()> {
     })?;
     progress.finish();
     let progress = Progress::new("scoring the model: frame", frames);
-    let Scores { iou, cd } = truth
+    let scores = truth
         .score_with(&model, |f| progress.set_position(f as u64))
         .with_context(|| a.model.display().to_string())?;
     progress.finish();
-    println!(
+    // The file first: a closed standard output ends the command at the table.
+    if let Some(path) = &a.csv {
+        write_atomically(path, scores.to_csv(names).as_bytes())?;
+        errln!("wrote {}", path.display());
+    }
+    let Scores { iou, cd } = scores;
+    outln!(
         "{} ({} classes), {} frames ({} annotated): 3D IoU on a {}³ grid over [-1, 1]³; \
          CD×10⁴ over {} samples per surface, unit-normalised by the domain diagonal 2√3",
         shape.name(),
@@ -264,31 +272,26 @@ fn synthetic(a: SyntheticArgs) -> Result<()> {
         annotated_frames.len(),
         a.resolution,
         a.samples
-    );
-    println!("| | IoU | CD×10⁴ |\n|---|---|---|");
+    )?;
+    outln!("| | IoU | CD×10⁴ |\n|---|---|---|")?;
     for (label, frames) in [
         ("all frames", Frames::All),
         ("annotated", Frames::Annotated),
         ("unannotated", Frames::Unannotated),
     ] {
-        println!(
+        outln!(
             "| {label} | {} | {} |",
             fmt(iou.mean(frames), 4),
             fmt(cd.mean(frames), 3)
-        );
+        )?;
     }
     for (c, name) in names.iter().enumerate() {
-        println!(
+        outln!(
             "| class {} {name} | {} | {} |",
             c + 1,
             fmt(iou.class_mean(c, Frames::All), 4),
             fmt(cd.class_mean(c, Frames::All), 3)
-        );
-    }
-    if let Some(path) = &a.csv {
-        let s = Scores { iou, cd }.to_csv(names);
-        write_atomically(path, s.as_bytes())?;
-        eprintln!("wrote {}", path.display());
+        )?;
     }
     Ok(())
 }
@@ -331,7 +334,7 @@ fn reference(a: ReferenceArgs) -> Result<()> {
     } else {
         format!("at t = {t}")
     };
-    println!(
+    outln!(
         "class {} {:?} {when}: CD×10⁴ = {:.4} (model → reference {:.4}, reference → model \
          {:.4}); {} samples per surface, unit-normalised by the reference's bounding-box \
          diagonal {diagonal:.4}",
@@ -341,7 +344,7 @@ fn reference(a: ReferenceArgs) -> Result<()> {
         cd.to_reference * 1e4,
         cd.from_reference * 1e4,
         a.samples
-    );
+    )?;
     Ok(())
 }
 
@@ -361,12 +364,12 @@ fn held_out(a: HeldoutArgs) -> Result<()> {
     let scores = heldout::held_out(&model, &seq, &split, a.pixels)
         .with_context(|| format!("{} on {}", a.model.display(), a.input.describe()))?;
     let names: Vec<&str> = seq.classes().iter().map(|c| c.name.as_str()).collect();
-    println!(
+    outln!(
         "2D IoU on withheld slices ({} pixels along each region's longer side)",
         a.pixels
-    );
-    println!("| | planes | mean | {} |", names.join(" | "));
-    println!("|---|---|---|{}", "---|".repeat(names.len()));
+    )?;
+    outln!("| | planes | mean | {} |", names.join(" | "))?;
+    outln!("|---|---|---|{}", "---|".repeat(names.len()))?;
     for (label, o, n) in [
         ("spatial", &scores.spatial, scores.planes[0]),
         ("temporal", &scores.temporal, scores.planes[1]),
@@ -377,7 +380,7 @@ fn held_out(a: HeldoutArgs) -> Result<()> {
         let mean =
             (!present.is_empty()).then(|| present.iter().sum::<f64>() / present.len() as f64);
         let per: Vec<String> = iou.iter().map(|v| fmt(*v, 4)).collect();
-        println!("| {label} | {n} | {} | {} |", fmt(mean, 4), per.join(" | "));
+        outln!("| {label} | {n} | {} | {} |", fmt(mean, 4), per.join(" | "))?;
     }
     Ok(())
 }
@@ -398,7 +401,7 @@ fn split(a: SplitArgs) -> Result<()> {
     write_atomically(&a.output, native::to_json(&train).as_bytes())?;
     let planes =
         |s: &dynaslice_data::Sequence| s.frames().iter().map(|f| f.planes.len()).sum::<usize>();
-    eprintln!(
+    errln!(
         "wrote {}: {} of {} frames, {} of {} planes",
         a.output.display(),
         train.frames().len(),
@@ -451,16 +454,16 @@ fn volume(a: VolumeArgs) -> Result<()> {
             &curve.volumes,
         )
     })?;
-    eprintln!("wrote {} and {}", a.output.display(), png.display());
+    errln!("wrote {} and {}", a.output.display(), png.display());
     for (c, name) in curve.classes.iter().enumerate() {
         let v: Vec<f64> = curve.volumes.iter().map(|v| v[c]).collect();
         let (lo, hi) = v
             .iter()
             .fold((f64::MAX, f64::MIN), |(l, h), &x| (l.min(x), h.max(x)));
-        println!(
+        outln!(
             "class {} {name:?}: volume {lo:.6} to {hi:.6} (world units³)",
             c + 1
-        );
+        )?;
     }
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! `dynaslice info MODEL`.
 
+use super::console::outln;
 use super::input::{self, InputArgs};
 use super::model::ModelFile;
 use super::progress::Progress;
@@ -44,43 +45,48 @@ pub fn run(args: Args) -> Result<()> {
         Weights::F32(_) => "f32",
         Weights::F16(_) => "f16",
     };
-    println!("model        {}", args.model.display());
-    println!(
+    outln!("model        {}", args.model.display())?;
+    outln!(
         "size         {} bytes ({} weights, {dtype})",
         file.len(),
         layout.param_count()
-    );
-    println!("sine layers  {:?}", layout.widths());
-    println!("classes      {}", layout.num_classes());
-    println!(
+    )?;
+    outln!("sine layers  {:?}", layout.widths())?;
+    outln!("classes      {}", layout.num_classes())?;
+    outln!(
         "cost         {} multiply-adds per point for f (x4 with ∇ₓf)",
         layout.macs_per_point()
-    );
-    println!(
+    )?;
+    outln!(
         "bounds       [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
-        lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
-    );
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2]
+    )?;
     if file.is_static() {
-        println!(
+        outln!(
             "time         none: a static model (trained on one timestep, ω_t^max = 0), the same \
              at every time; its outputs are one frame, at t = {t0}"
-        );
+        )?;
     } else {
-        println!("time range   {t0} .. {t1}");
-        println!("ω_t^max      {} (normalised time)", model.omega_t_max());
+        outln!("time range   {t0} .. {t1}")?;
+        outln!("ω_t^max      {} (normalised time)", model.omega_t_max())?;
     }
     for (k, class) in model.classes().enumerate() {
-        println!(
+        outln!(
             "class {:<6} {:?} (source label {})",
             k + 1,
             class.name,
             class.label
-        );
+        )?;
     }
     if !model.metadata().is_empty() {
-        println!("metadata");
+        outln!("metadata")?;
         for line in model.metadata().lines() {
-            println!("  {line}");
+            outln!("  {line}")?;
         }
     }
     check_extents(&args, &file)
@@ -139,9 +145,9 @@ fn check_extents(args: &Args, file: &ModelFile) -> Result<()> {
         0 => "every class within them".to_string(),
         n => format!("{n} warning(s), on standard error"),
     };
-    println!(
+    outln!(
         "extents      the classes' surfaces at {} time(s) against {against}: {verdict}",
         times.len()
-    );
+    )?;
     Ok(())
 }

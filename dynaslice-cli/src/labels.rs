@@ -2,6 +2,7 @@
 //! `--times`): the model's Eq. 11 label volume, written frame by frame (docs/metrics.md), with
 //! its colour tables, or as 3D Slicer segmentations and their sequence.
 
+use super::console::errln;
 use super::measure::units_and_frame;
 use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
@@ -173,12 +174,12 @@ pub fn run(a: Args) -> Result<()> {
     })?;
     progress.finish();
     let (volume, companions) = describe(&files);
-    eprintln!(
+    errln!(
         "wrote {volume}: {nx}×{ny}×{nz} voxels × {frames} frame(s) in {:.1} s",
         start.elapsed().as_secs_f64()
     );
     for companion in companions {
-        eprintln!("  and {companion}");
+        errln!("  and {companion}");
     }
     // The class volumes of the first and last frame, a quick plausibility check, and the
     // colour each class has in every output; in mL where the input's units are millimetres.
@@ -195,7 +196,7 @@ pub fn run(a: Args) -> Result<()> {
         } else {
             format!("{}, {}", at(0), at(frames - 1))
         };
-        eprintln!(
+        errln!(
             "  label {} {:?} {}: {volumes} ({})",
             class.label,
             class.name,

@@ -5,6 +5,7 @@
 
 mod bench;
 mod completions;
+mod console;
 mod demo;
 mod eval;
 mod info;
@@ -31,6 +32,7 @@ mod warnings;
 pub mod widths;
 
 use clap::{Parser, Subcommand};
+use console::errln;
 use std::process::ExitCode;
 
 /// Reconstruct moving multi-structure 3D surfaces from sparse 2D cross-sections (DynaSlice).
@@ -87,8 +89,9 @@ pub fn main() -> ExitCode {
     warnings::install();
     match run(Cli::parse().command) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if console::is_closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            errln!("error: {e:#}");
             ExitCode::FAILURE
         }
     }
@@ -118,8 +121,17 @@ fn run(command: Command) -> anyhow::Result<()> {
 /// Runs the command line `args` (without the program name), echoing it first, as a user would
 /// type it: the demo is a script of ordinary subcommands.
 fn run_line(args: &[String]) -> anyhow::Result<()> {
-    eprintln!("\n$ dynaslice {}", args.join(" "));
-    let cli =
-        Cli::try_parse_from(std::iter::once("dynaslice".to_string()).chain(args.iter().cloned()))?;
-    run(cli.command)
+    errln!("\n$ dynaslice {}", args.join(" "));
+    run(parse_line(args)?.command)
+}
+
+/// Parses the command line `args` (without the program name) as `dynaslice` would.
+fn parse_line(args: &[String]) -> anyhow::Result<Cli> {
+    Cli::try_parse_from(std::iter::once("dynaslice".to_string()).chain(args.iter().cloned()))
+        .map_err(|e| {
+            // clap's message starts with its own "error: ", which main prints too.
+            let message = e.to_string();
+            let message = message.strip_prefix("error: ").unwrap_or(&message);
+            anyhow::anyhow!("dynaslice {}: {}", args.join(" "), message.trim_end())
+        })
 }

@@ -1,11 +1,12 @@
 //! `dynaslice man [-o DIR]`: manual pages (roff) generated from the command line's own
 //! definitions (clap_mangen), so they never disagree with `--help`.
 
+use super::console::{errln, out_bytes};
 use super::output::Plan;
 use anyhow::{Context, Result};
 use clap::CommandFactory;
 use dynaslice_data::atomic::write_atomically;
-use std::io::Write;
+
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice man`.
@@ -32,7 +33,7 @@ pub fn run(a: Args) -> Result<()> {
     let Some(dir) = a.output else {
         let mut page = Vec::new();
         clap_mangen::Man::new(cmd).render(&mut page)?;
-        std::io::stdout().write_all(&page)?;
+        out_bytes(&page)?;
         return Ok(());
     };
     let mut plan = Plan::new(std::iter::empty::<PathBuf>(), a.force);
@@ -48,7 +49,7 @@ pub fn run(a: Args) -> Result<()> {
     for (name, page) in &pages {
         write_atomically(&dir.join(name), page)?;
     }
-    eprintln!("wrote {} pages to {}", pages.len(), dir.display());
+    errln!("wrote {} pages to {}", pages.len(), dir.display());
     Ok(())
 }
 

@@ -2,6 +2,7 @@
 //! motion and function (dynaslice_metrics::motion) in the input's units and patient frame, and
 //! the ITV (dynaslice_metrics::itv) as label volumes and meshes.
 
+use super::console::{errln, outln};
 use super::model::ModelFile;
 use super::options::{count, positive_f64, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
 use super::output::{Kind, Plan};
@@ -298,7 +299,7 @@ pub fn run(a: Args) -> Result<()> {
         write_via(out, |tmp| {
             std::fs::write(tmp, &csv).with_context(|| format!("cannot write {}", tmp.display()))
         })?;
-        eprintln!("wrote {}", out.display());
+        errln!("wrote {}", out.display());
     }
     print_summary(&m);
     if let Some(dir) = &a.itv {
@@ -307,7 +308,7 @@ pub fn run(a: Args) -> Result<()> {
         write_itv(&file, &m, &times, a.resolution, a.itv_spacing, &itv_files)?;
     }
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&m.to_json(&a.model))?);
+        outln!("{}", serde_json::to_string_pretty(&m.to_json(&a.model))?)?;
     }
     Ok(())
 }
@@ -315,7 +316,7 @@ pub fn run(a: Args) -> Result<()> {
 /// The per-class figures over the cycle, on standard error.
 fn print_summary(m: &Measurement) {
     let (v, l) = (m.units.volume(), m.units.length());
-    eprintln!(
+    errln!(
         "{} times from {} to {}; {} in {v}, positions in {l} ({}: +x {}, +y {}, +z {})",
         m.motion.times.len(),
         m.motion.times[0],
@@ -351,7 +352,7 @@ fn print_summary(m: &Measurement) {
                 )
             })
             .unwrap_or_else(|| "absent at every time".into());
-        eprintln!(
+        errln!(
             "  {:?}: volume {} {v} (t = {}) to {} {v} (t = {}), stroke {} {v}, EF {}; \
              peak-to-peak {amplitude}",
             c.name,
@@ -422,7 +423,7 @@ fn write_itv(
             .with_color(m.colors[k]);
         mesh_io::write(mesh_path, &meshes[k], Format::Ply, &info)?;
         let voxels = masks[k].iter().filter(|&&i| i).count() as f64;
-        eprintln!(
+        errln!(
             "wrote {} ({} {} by voxels) and {} ({} {} enclosed)",
             volume_path.display(),
             m.volume(voxels * grid.voxel_volume()),

@@ -2,6 +2,7 @@
 //! sets of a model's classes as closed triangle meshes in world coordinates. Method, file names
 //! and attributes: docs/meshing.md.
 
+use super::console::errln;
 use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
 use super::options::{
@@ -15,6 +16,7 @@ use anyhow::{anyhow, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::TimeSeries;
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
+use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_mesh::{self as mesh, Extraction, Options, Sampling, Surfaces, DEFAULT_SAFETY};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -51,7 +53,7 @@ pub struct Args {
     #[arg(long = "class", value_name = "K")]
     classes: Vec<String>,
     /// Lattice cells along the longest axis of the model's bounds.
-    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = 128, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     resolution: u32,
     /// Output: a .ply, .obj, .stl or .vtp file with --time, a directory with --times.
     #[arg(short, long, value_name = "OUT")]
@@ -251,14 +253,14 @@ fn mesh_all(args: &Args) -> Result<()> {
     }
     progress.finish();
     match files.finish()? {
-        Some(pvd) => eprintln!("wrote {}", pvd.display()),
-        None if series => eprintln!(
-            "no series.pvd: ParaView collections list VTK XML files only (use --format vtp)"
-        ),
+        Some(pvd) => errln!("wrote {}", pvd.display()),
+        None if series => {
+            errln!("no series.pvd: ParaView collections list VTK XML files only (use --format vtp)")
+        }
         None => {}
     }
     if times.len() > 1 {
-        eprintln!(
+        errln!(
             "{} times in {:.1} s: {values} value + {jacobians} jacobian evaluations (dense: {dense} values, {:.1}x more)",
             times.len(),
             started.elapsed().as_secs_f64(),

@@ -10,6 +10,7 @@
 //! library's output under a temporary name and renames it into place, so a failed run leaves
 //! neither a partial file nor a damaged old one.
 
+use super::console::errln;
 use anyhow::{bail, Result};
 use dynaslice_data::atomic::{self, Claim};
 use std::collections::HashSet;
@@ -168,7 +169,7 @@ impl Plan {
             stale
         };
         for file in stale {
-            eprintln!(
+            errln!(
                 "removed {}: a temporary file of a run that did not finish",
                 file.display()
             );

@@ -1,6 +1,7 @@
 //! `dynaslice picture MODEL INPUT -o FIG.png`: predicted labels and input contours on a plane.
 //! `dynaslice picture --3d MODEL -o FIG.png`: the classes' surfaces at a few times, shaded.
 
+use super::console::errln;
 use super::input::{self, InputArgs};
 use super::mesh::surfaces_at;
 use super::model::ModelFile;
@@ -12,6 +13,7 @@ use anyhow::{bail, Context, Result};
 use dynaslice_data::atomic::write_via;
 use dynaslice_figures::picture::{match_classes, plane_labels, Panel};
 use dynaslice_figures::render3d::{self, Camera, RenderOptions, SurfacePanel};
+use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_mesh::Options;
 use std::path::PathBuf;
 
@@ -71,7 +73,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = View::Oblique, requires = "three_d")]
     view: View,
     /// --3d: meshing lattice cells along the longest axis of the model's bounds.
-    #[arg(long, default_value_t = 96, value_parser = count(1, MAX_MESH_RESOLUTION),
+    #[arg(long, default_value_t = 96, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION),
           requires = "three_d")]
     resolution: u32,
     /// --3d: side of each panel in pixels.
@@ -198,7 +200,7 @@ fn run_3d(a: Args) -> Result<()> {
     write_via(&a.output, |tmp| {
         render3d::render_surfaces(tmp, &panels, &classes, &options)
     })?;
-    eprintln!("wrote {}", a.output.display());
+    errln!("wrote {}", a.output.display());
     Ok(())
 }
 
@@ -319,6 +321,6 @@ pub fn run(a: Args) -> Result<()> {
     })?;
     progress.set_position(panels.len() as u64);
     progress.finish();
-    eprintln!("wrote {}", a.output.display());
+    errln!("wrote {}", a.output.display());
     Ok(())
 }

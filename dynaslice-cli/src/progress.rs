@@ -3,6 +3,7 @@
 //! the demo captured) a line `WHAT done/total, S s` whenever [`QUIET`] has passed without a line,
 //! and a last one at the end of work that printed any, so the next step follows within `QUIET`.
 
+use super::console::errln;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::sync::{Arc, Condvar, Mutex};
@@ -72,7 +73,7 @@ impl Progress {
                 let due = s.last_line + QUIET;
                 let now = Instant::now();
                 if now >= due {
-                    eprintln!(
+                    errln!(
                         "{} {}/{}, {:.0} s",
                         s.what,
                         s.done,
@@ -86,7 +87,7 @@ impl Progress {
                 }
             }
             if s.printed {
-                eprintln!(
+                errln!(
                     "{} {}/{} in {:.0} s",
                     s.what,
                     s.done,
@@ -122,7 +123,7 @@ impl Progress {
             Some(bar) => bar.println(line.as_ref()),
             None => {
                 let mut s = self.state.0.lock().expect("progress state");
-                eprintln!("{}", line.as_ref());
+                errln!("{}", line.as_ref());
                 s.last_line = Instant::now();
             }
         }

@@ -1,5 +1,6 @@
 //! `dynaslice query MODEL X Y Z [T]`.
 
+use super::console::outln;
 use super::model::ModelFile;
 use super::options::finite_f32;
 use anyhow::Result;
@@ -43,13 +44,19 @@ pub fn run(args: Args) -> Result<()> {
     let (mut f, mut grad, mut dfdt) = (vec![0.0; k], vec![[0.0; 3]; k], vec![0.0; k]);
     let x = [args.x, args.y, args.z];
     model.eval_jacobian(x, t, &mut f, &mut grad, &mut dfdt)?;
-    println!(
+    outln!(
         "{:<5} {:<20} {:>12} {:>12} {:>12} {:>12} {:>12}",
-        "class", "name", "f", "df/dx", "df/dy", "df/dz", "df/dt"
-    );
+        "class",
+        "name",
+        "f",
+        "df/dx",
+        "df/dy",
+        "df/dz",
+        "df/dt"
+    )?;
     for (i, class) in model.classes().enumerate() {
         let g = grad[i];
-        println!(
+        outln!(
             "{:<5} {:<20} {:>12.6} {:>12.6} {:>12.6} {:>12.6} {:>12.6}",
             i + 1,
             class.name,
@@ -58,14 +65,14 @@ pub fn run(args: Args) -> Result<()> {
             g[1],
             g[2],
             dfdt[i]
-        );
+        )?;
     }
     match model.label(x, t) {
-        UNDEFINED_LABEL => println!("label undefined (non-finite query)"),
-        0 => println!("label 0 (background)"),
+        UNDEFINED_LABEL => outln!("label undefined (non-finite query)")?,
+        0 => outln!("label 0 (background)")?,
         l => {
             let class = model.class(l)?;
-            println!("label {l} ({}, source label {})", class.name, class.label);
+            outln!("label {l} ({}, source label {})", class.name, class.label)?;
         }
     }
     Ok(())

@@ -2,6 +2,7 @@
 //! the model was trained on and how, its classes, the figures of `dynaslice measure` as charts
 //! and tables, and its surfaces in 3D at several times.
 
+use super::console::errln;
 use super::measure::{self, time_axis, Measurement};
 use super::mesh::surfaces_at;
 use super::model::ModelFile;
@@ -89,7 +90,7 @@ pub fn run(a: Args) -> Result<()> {
     write_via(&a.output, |tmp| {
         std::fs::write(tmp, &html).with_context(|| format!("cannot write {}", tmp.display()))
     })?;
-    eprintln!("wrote {} ({} KiB)", a.output.display(), html.len() / 1024);
+    errln!("wrote {} ({} KiB)", a.output.display(), html.len() / 1024);
     Ok(())
 }
 

@@ -3,6 +3,7 @@
 //! Sets, one per time, on the planes of the reference geometry, for a treatment planning system
 //! (docs/tps-import.md).
 
+use super::console::errln;
 use super::model::ModelFile;
 use super::options::{count, positive_f64, positive_f64_to, time_series, MAX_THREADS, MAX_TIMES};
 use super::output::{regular_file, Plan};
@@ -192,7 +193,7 @@ pub fn run(a: Args) -> Result<()> {
         rtwrite::write(&path, &template, &series, &set)?;
         manifest_text += &format!("{} {}\n", t as f32, names[i]);
         let count: usize = set.rois.iter().map(|r| r.contours.len()).sum();
-        eprintln!(
+        errln!(
             "wrote {} (t = {}): {} ROIs, {count} contours",
             path.display(),
             t as f32,
@@ -200,7 +201,7 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     dynaslice_data::atomic::write_atomically(&a.output.join(MANIFEST), manifest_text.as_bytes())?;
-    eprintln!(
+    errln!(
         "wrote {} ({} phases) in {:.1} s; {} planes, step {} mm, tolerance {} mm",
         a.output.join(MANIFEST).display(),
         times.len(),

@@ -1,5 +1,6 @@
 //! `dynaslice synth -o DIR [--shape NAME|all]`: the synthetic 4D benchmark.
 
+use super::console::outln;
 use super::memory::{self, MemoryArgs};
 use super::options::{
     count, MAX_PLANE_RESOLUTION, MAX_SYNTH_PLANES, MAX_SYNTH_TIMESTEPS, MAX_VOLUME_RESOLUTION,
@@ -104,6 +105,9 @@ pub fn run(args: Args) -> Result<()> {
         "writing the slices and ground truth: shape",
         shapes.len() as u64,
     );
+    // A failed listing (the reader of standard output gone) stops the listing, not the
+    // remaining data sets.
+    let mut listed = Ok(());
     for shape in shapes {
         // Deleted with its contents unless renamed away (any error, or a panic).
         let mut builder = tempfile::Builder::new();
@@ -125,9 +129,12 @@ pub fn run(args: Args) -> Result<()> {
         std::fs::rename(tmp.path().join(shape.name()), &target)
             .with_context(|| format!("cannot rename the data set to {}", target.display()))?;
         progress.inc();
-        for f in files {
+        for f in &files {
+            if listed.is_err() {
+                break;
+            }
             let moved = |p: &std::path::Path| target.join(p.file_name().unwrap_or_default());
-            println!(
+            listed = outln!(
                 "{:<9} {}  {}",
                 f.shape.name(),
                 moved(&f.slices).display(),
@@ -136,5 +143,5 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     progress.finish();
-    Ok(())
+    Ok(listed?)
 }

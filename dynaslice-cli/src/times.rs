@@ -2,6 +2,7 @@
 //! on one timestep, ω_t^max = 0) gives the same field at every time, so a list of times is one
 //! time for it: the work is done once, with a note saying why, instead of N identical outputs.
 
+use super::console::errln;
 use super::model::ModelFile;
 use anyhow::Result;
 use std::path::Path;
@@ -37,5 +38,5 @@ pub(crate) fn model_times(
 
 /// Prints `message` as a note on standard error (information, not a warning).
 pub(crate) fn note(message: &str) {
-    eprintln!("note: {message}");
+    errln!("note: {message}");
 }

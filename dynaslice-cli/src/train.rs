@@ -6,6 +6,7 @@
 //! ([`RunFiles::check_state`]) before the input is read, and the run is shown with a progress
 //! bar (or log lines off a terminal) and stopped cleanly by Ctrl-C.
 
+use super::console::errln;
 use super::input::InputArgs;
 use super::loss::LossArgs;
 use super::options::{count, f32_in, non_negative_f64_to, positive_f32, positive_f64_to};
@@ -139,7 +140,7 @@ fn catch_interrupt() {
             if INTERRUPTED.swap(true, Ordering::SeqCst) {
                 std::process::exit(130);
             }
-            eprintln!(
+            errln!(
                 "\ninterrupted: stopping after this step to save the checkpoint \
                  (Ctrl-C again to quit without it)"
             );
@@ -209,7 +210,7 @@ pub fn run(a: Args) -> Result<()> {
     plan.continued(&files.journal)?;
     files.check_state(&spec)?;
     if a.resume && !files.checkpoint.exists() {
-        eprintln!(
+        errln!(
             "--resume: no checkpoint at {}; starting at step 0",
             files.checkpoint.display()
         );
@@ -241,7 +242,7 @@ pub fn run(a: Args) -> Result<()> {
     trained.write(&files)?;
     let rows: Vec<(u64, &[f64])> = trained.rows.iter().map(|r| (r.0, &r.1[..])).collect();
     loss_curve(&files.png, &TERM_NAMES, &rows)?;
-    eprintln!(
+    errln!(
         "wrote {} after {} steps in {:.1} s ({} bytes); loss log {}, curve {}",
         files.model.display(),
         trained.steps_done,
@@ -305,7 +306,7 @@ impl Observer for Console {
                 bar.set_message(report(p));
             }
             None if self.last_log.elapsed() >= Duration::from_secs(10) || p.step == p.steps => {
-                eprintln!(
+                errln!(
                     "step {}/{} {:.1} s {}",
                     p.step,
                     p.steps,
@@ -326,7 +327,7 @@ impl Observer for Console {
     fn note(&mut self, line: &str) {
         match &self.bar {
             Some(bar) => bar.println(line),
-            None => eprintln!("{line}"),
+            None => errln!("{line}"),
         }
     }
 }

@@ -1,6 +1,7 @@
 //! Printing the libraries' warnings (input repairs and skips, reported through the `log`
 //! facade) on standard error, as `warning: …`, the way errors are printed as `error: …`.
 
+use super::console::errln;
 use log::{Level, LevelFilter, Log, Metadata, Record};
 
 /// The logger: warnings and errors of every crate, nothing more verbose.
@@ -18,7 +19,7 @@ impl Log for Stderr {
             } else {
                 "warning"
             };
-            eprintln!("{level}: {}", record.args());
+            errln!("{level}: {}", record.args());
         }
     }
 

@@ -2,12 +2,12 @@
 //! no patient frame) records it, `info` says so, and its default mesh lies on the file's own
 //! contours, not mirrored into LPS. `--space lps` still gives the mirror, tagged.
 
-use dynaslice_test_support::fixtures::{csl_file, succeeded};
+use dynaslice_test_support::fixtures::csl_file;
 use std::process::Command;
 
 mod common;
 
-use common::train_command;
+use common::{succeeded, train_command};
 
 /// A ball of radius 4 about (20, 10, 0), cut by 3 z-planes: far from the origin in x and y, so
 /// a mirror in x and y lands far from it.

@@ -8,6 +8,10 @@
 
 use crate::Error;
 
+/// Largest normalised coordinate or time the network is evaluated at (2²⁰): see
+/// [`Domain::normalise`].
+pub const NORMALISED_LIMIT: f32 = 1_048_576.0;
+
 /// World ↔ normalised coordinates of one model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Domain {
@@ -61,14 +65,27 @@ impl Domain {
         Ok(())
     }
 
-    /// World point and time to normalised (x_n, y_n, z_n, t_n).
+    /// World point and time to normalised (x_n, y_n, z_n, t_n), each clamped to
+    /// ±[`NORMALISED_LIMIT`]; NaN or ±∞ inputs give NaN.
+    ///
+    /// The clamp keeps the network's first layer finite for every finite query: (x − c)/s
+    /// overflows to ±∞ near f32::MAX when s < 1, and ∞ − ∞ in a layer's sum is NaN. Beyond
+    /// the limit (2²⁰ half-extents, 1 km for a 1 mm domain) a query gets the answer at the
+    /// clamped point.
     #[inline]
     pub fn normalise(&self, x: [f32; 3], t: f32) -> [f32; 4] {
+        let map = |v: f32, origin: f32, scale: f32| {
+            if v.is_finite() {
+                ((v - origin) / scale).clamp(-NORMALISED_LIMIT, NORMALISED_LIMIT)
+            } else {
+                f32::NAN
+            }
+        };
         [
-            (x[0] - self.center[0]) / self.scale[0],
-            (x[1] - self.center[1]) / self.scale[1],
-            (x[2] - self.center[2]) / self.scale[2],
-            (t - self.time_origin) / self.time_span,
+            map(x[0], self.center[0], self.scale[0]),
+            map(x[1], self.center[1], self.scale[1]),
+            map(x[2], self.center[2], self.scale[2]),
+            map(t, self.time_origin, self.time_span),
         ]
     }
 

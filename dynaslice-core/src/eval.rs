@@ -16,8 +16,11 @@
 //! and the work is fixed by the layout: there are no data-dependent loops.
 //!
 //! NaN or infinite inputs propagate: every channel of such a point is NaN (and its label
-//! [`crate::UNDEFINED_LABEL`]). Finite points far outside the training domain are evaluated
-//! like any other (the network extrapolates).
+//! [`crate::UNDEFINED_LABEL`]). Every finite point and time gives finite f, ∇ₓf and ∂f/∂t and a
+//! defined label: points far outside the training domain are evaluated like any other (the
+//! network extrapolates), up to [`crate::domain::NORMALISED_LIMIT`] half-extents, beyond which
+//! the coordinate is clamped ([`crate::Domain::normalise`]); the sine stays bounded for any
+//! finite pre-activation ([`crate::sine`]).
 
 use crate::format::MAX_WIDTH;
 use crate::kernel::{self, widen_into, FirstLayer, Kernels, Product};

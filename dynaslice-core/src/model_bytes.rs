@@ -34,12 +34,24 @@ impl ModelBytes {
     /// Reads the file at `path`, refusing anything that is not a regular file or is larger than
     /// any model can be ([`format::max_file_size`]) before reading it. Nothing is validated: see
     /// [`ModelBytes::model`].
+    ///
+    /// The file type is checked before the open (opening a FIFO for reading blocks until a
+    /// writer comes) and again on the opened file (a path replaced in between).
     pub fn read(path: &Path) -> std::io::Result<ModelBytes> {
         use std::io::{Error as IoError, ErrorKind, Read};
+        let not_regular = || {
+            IoError::new(
+                ErrorKind::InvalidInput,
+                "not a regular file (a FIFO, device or directory)",
+            )
+        };
+        if !std::fs::metadata(path)?.is_file() {
+            return Err(not_regular());
+        }
         let file = std::fs::File::open(path)?;
         let meta = file.metadata()?;
         if !meta.is_file() {
-            return Err(IoError::new(ErrorKind::InvalidInput, "not a regular file"));
+            return Err(not_regular());
         }
         let max = format::max_file_size();
         if meta.len() > max {

@@ -10,7 +10,8 @@
 //!    of n in the lowest bit of the sum; cos x: n = m + ½ with m = round(x/π − ½).
 //! 2. r = x − n·π with π split into three parts whose leading part has 8 significant bits, so
 //!    n·P1 is exact for |n| < 2¹⁵; r ∈ [−π/2, π/2].
-//! 3. sin x = (−1)ⁿ·S(r) and cos x = cos(mπ + π/2 + r) = (−1)ᵐ⁺¹·S(r), with S the odd
+//! 3. r is clamped to ±[`R_MAX`] (see below), a no-op wherever the reduction is exact.
+//! 4. sin x = (−1)ⁿ·S(r) and cos x = cos(mπ + π/2 + r) = (−1)ᵐ⁺¹·S(r), with S the odd
 //!    degree-9 minimax polynomial of sin on [−π/2, π/2] (absolute error 2.9·10⁻⁸ in exact
 //!    arithmetic); the sign is one XOR.
 //!
@@ -33,8 +34,11 @@
 //! 1.19·10⁻⁷ (sin) and 1.15·10⁻⁷ (cos) with separate roundings, 1.30·10⁻⁷ and 1.27·10⁻⁷ fused,
 //! about 2 ulp near ±1 (the rounding of r² and r³ at |r| ≈ π/2, where r³·S₁… is 0.57);
 //! ≤ 4·10⁻⁶ on |x| ≤ 10⁴; `sinf`'s own error is ≤ 6·10⁻⁸. The network's own f32 sums of 64 to
-//! 512 products round at about 10⁻⁶. Beyond |x| ≈ 10⁵ the reduction loses accuracy. NaN or ±∞
-//! give NaN.
+//! 512 products round at about 10⁻⁶. Beyond |x| ≈ 10⁵ the reduction loses accuracy, and beyond
+//! |x| ≈ 1.3·10⁷ (|x/π| ≥ 2²², where the magic-number rounding stops) r is no longer small: it
+//! grows like |x|·2⁻²⁴ and S(r) would grow like r⁹, to ±∞ and then NaN in the next layer (a query
+//! at x = 10⁹ mm gave NaN). Clamping r to ±[`R_MAX`] keeps every finite x's result in
+//! [−1.0001, 1.0001] at the cost of one min and one max; NaN and ±∞ still give NaN.
 
 const FRAC_1_PI: f32 = core::f32::consts::FRAC_1_PI;
 /// 1.5·2²³: adding it rounds a float below 2²² to an integer, held in the low mantissa bits.
@@ -46,6 +50,9 @@ const S1: f32 = -1.666_666_6e-1;
 const S2: f32 = 8.333_257e-3;
 const S3: f32 = -1.982_344_3e-4;
 const S4: f32 = 2.634_800_5e-6;
+/// Bound on the reduced argument: above π/2 plus the reduction's rounding (so it changes no
+/// result where the reduction is exact), and where S is still within 10⁻⁴ of ±1.
+pub const R_MAX: f32 = 1.6;
 
 /// How a·b + c is evaluated: the portable kernels round twice (bit-identical on every target);
 /// the SIMD kernels (and the trainer's) use one fused multiply-add instruction.
@@ -95,6 +102,10 @@ fn reduced_sine<M: MulAdd, const HALF: bool>(x: f32) -> f32 {
         shifted - ROUND_MAGIC
     };
     let r = M::mul_add(-n, P3, M::mul_add(-n, P2, M::mul_add(-n, P1, x)));
+    // Comparisons, not f32::clamp: NaN passes through (both are false) and each compiles to
+    // one max/min instruction.
+    let r = if r > R_MAX { R_MAX } else { r };
+    let r = if r < -R_MAX { -R_MAX } else { r };
     let r2 = r * r;
     let p = M::mul_add(r2, M::mul_add(r2, M::mul_add(r2, S4, S3), S2), S1);
     let s = M::mul_add(r * r2, p, r);
@@ -189,6 +200,29 @@ mod tests {
             assert!(s.is_nan() && c.is_nan(), "sin_cos({x}) = ({s}, {c})");
         }
         assert_eq!(sin_cos(0.0), (0.0, 1.0));
+    }
+
+    /// Every finite argument, however far beyond the exact reduction, gives a bounded result:
+    /// unbounded sines became ±∞ and NaN one layer later.
+    #[test]
+    fn every_finite_argument_gives_a_bounded_result() {
+        let bounded = |x: f32| {
+            let check = |(s, c): (f32, f32)| s.abs() <= 1.0001 && c.abs() <= 1.0001;
+            #[cfg(feature = "std")]
+            let fused = check(sin_cos_with::<Fused>(x));
+            #[cfg(not(feature = "std"))]
+            let fused = true;
+            check(sin_cos(x)) && fused && sin(x).abs() <= 1.0001
+        };
+        // Every binade from the smallest normal to f32::MAX, 64 mantissas each, both signs.
+        let sweep =
+            (1u32..=254).flat_map(|e| (0..64).map(move |m| f32::from_bits(e << 23 | m << 17)));
+        let specials = [f32::MAX, 1e9, 4_294_967_297.0, 1e30, 1e38];
+        for x in sweep.chain(specials) {
+            for x in [x, -x] {
+                assert!(bounded(x), "sin_cos({x:e}) = {:?}", sin_cos(x));
+            }
+        }
     }
 
     #[test]

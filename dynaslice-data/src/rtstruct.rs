@@ -259,6 +259,8 @@ fn read_object_file(path: &Path) -> Result<InMemDicomObject> {
             } else {
                 "implicit VR little endian"
             }
+        );
+    }
     Ok(obj)
 }
 

@@ -21,7 +21,6 @@ use core::ffi::{c_char, c_int, CStr};
 use dynaslice_core::{format, Error, Model, ModelBytes, Scratch};
 use std::cell::RefCell;
 use std::ffi::CString;
-use std::io::Read;
 use std::mem::{align_of, size_of};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -265,7 +264,7 @@ fn span<T>(name: &str, ptr: *const T, len: usize) -> (&str, usize, usize) {
     (name, ptr as usize, len * size_of::<T>())
 }
 
-/// Reads a 3-float point (copied, so it may alias any output).
+/// Reads a 3-float point (copied; the calls still refuse an output overlapping it, as documented).
 ///
 /// # Safety
 /// `xyz` must be NULL or point to 3 readable floats.
@@ -320,9 +319,10 @@ unsafe fn load(
 
 /// Loads the model file at `path` into a new model stored in `*out`.
 ///
-/// `path` is a NUL-terminated path (bytes as given on POSIX, UTF-8 elsewhere). Returns 0, or a
-/// negative `DS_E_*` code with `*out` set to NULL (when `out` itself is not NULL). Free the model
-/// with `ds_model_free`.
+/// `path` is a NUL-terminated path (bytes as given on POSIX, UTF-8 elsewhere) of a regular file:
+/// a FIFO, device or directory fails with `DS_E_IO` before it is opened (opening a FIFO would
+/// block). Returns 0, or a negative `DS_E_*` code with `*out` set to NULL (when `out` itself is
+/// not NULL). Free the model with `ds_model_free`.
 ///
 /// # Safety
 /// `path` must be NULL or a NUL-terminated string; `out` NULL or a writable `DsModel *`.
@@ -340,28 +340,15 @@ pub unsafe extern "C" fn ds_model_open(path: *const c_char, out: *mut *mut DsMod
         let path = path
             .to_str()
             .map_err(|_| Failure::new(DS_E_INVALID_ARGUMENT, "`path` is not UTF-8"))?;
-        let io = |e: std::io::Error| {
-            Failure::new(
-                DS_E_IO,
-                format!("cannot read {}: {e}", path.to_string_lossy()),
-            )
-        };
-        let limit = format::max_file_size();
-        let mut bytes = Vec::new();
-        std::fs::File::open(path)
-            .map_err(io)?
-            .take(limit + 1)
-            .read_to_end(&mut bytes)
-            .map_err(io)?;
-        if bytes.len() as u64 > limit {
-            return Err(Failure::new(
-                DS_E_BAD_FORMAT,
-                format!(
-                    "{} is larger than any model ({limit} bytes)",
-                    path.to_string_lossy()
-                ),
-            ));
-        }
+        let path = std::path::Path::new(path);
+        // Regular files only, checked before the open (a FIFO would block it).
+        let bytes = ModelBytes::read(path).map_err(|e| {
+            let code = match e.kind() {
+                std::io::ErrorKind::InvalidData => DS_E_BAD_FORMAT,
+                _ => DS_E_IO,
+            };
+            Failure::new(code, format!("cannot read {}: {e}", path.display()))
+        })?;
         DsModel::from_bytes(&bytes)
     };
     // SAFETY: `out` is forwarded under this function's contract.
@@ -562,11 +549,13 @@ unsafe fn point_query<'a>(
 
 /// Evaluates the K signed distances f(x, t) at world point `xyz` (3 floats) and world time `t`
 /// into `sdf[0..K]` (world units; negative inside class k). `sdf` holds `sdf_len >= K` floats;
-/// entries past K are left untouched. A NaN or infinite query gives NaN distances (and returns 0).
+/// entries past K are left untouched. Every finite query gives finite distances, however far
+/// outside the model's domain; a NaN or infinite query gives NaN distances (and returns 0).
+/// `DS_E_INVALID_ARGUMENT` when `sdf` overlaps `xyz`.
 ///
 /// # Safety
 /// `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `sdf` NULL or
-/// `sdf_len` writable floats.
+/// `sdf_len` writable floats not overlapping `xyz`.
 #[no_mangle]
 pub unsafe extern "C" fn ds_eval(
     model: *const DsModel,
@@ -578,6 +567,8 @@ pub unsafe extern "C" fn ds_eval(
     guard("ds_eval", || {
         // SAFETY: per this function's contract.
         let (model, x, k) = unsafe { point_query(model, xyz, sdf_len) }?;
+        check_array(sdf, sdf_len, "sdf")?;
+        disjoint(&[span("xyz", xyz, 3), span("sdf", sdf, sdf_len)])?;
         // SAFETY: per this function's contract; the only slice of this call (`x` is a copy).
         let f = unsafe { output(sdf, sdf_len, "sdf") }?;
         model.eval(x, t, &mut f[..k]).map_err(Failure::model)?;
@@ -590,7 +581,7 @@ pub unsafe extern "C" fn ds_eval(
 /// in 1..=K.
 ///
 /// # Safety
-/// As `ds_eval`, and `grad` NULL or `3 * K` writable floats not overlapping `sdf`.
+/// As `ds_eval`, and `grad` NULL or `3 * K` writable floats overlapping neither `xyz` nor `sdf`.
 #[no_mangle]
 pub unsafe extern "C" fn ds_eval_grad(
     model: *const DsModel,
@@ -606,7 +597,11 @@ pub unsafe extern "C" fn ds_eval_grad(
         check_array(sdf, sdf_len, "sdf")?;
         // `[f32; 3]` rows: K of them are the 3K floats (K ≤ format::MAX_CLASSES: no overflow).
         check_array(grad.cast::<[f32; 3]>(), k, "grad")?;
-        disjoint(&[span("sdf", sdf, sdf_len), span("grad", grad, 3 * k)])?;
+        disjoint(&[
+            span("xyz", xyz, 3),
+            span("sdf", sdf, sdf_len),
+            span("grad", grad, 3 * k),
+        ])?;
         // SAFETY: per this function's contract; disjoint checked above.
         let (f, g) = unsafe {
             (
@@ -626,7 +621,7 @@ pub unsafe extern "C" fn ds_eval_grad(
 /// −(∂f/∂t)/‖∇ₓf‖.
 ///
 /// # Safety
-/// As `ds_eval_grad`, and `dfdt` NULL or `sdf_len` writable floats overlapping neither output.
+/// As `ds_eval_grad`, and `dfdt` NULL or `sdf_len` writable floats overlapping no other buffer.
 #[no_mangle]
 pub unsafe extern "C" fn ds_eval_jacobian(
     model: *const DsModel,
@@ -645,6 +640,7 @@ pub unsafe extern "C" fn ds_eval_jacobian(
         check_array(grad.cast::<[f32; 3]>(), k, "grad")?;
         check_array(dfdt, sdf_len, "dfdt")?;
         disjoint(&[
+            span("xyz", xyz, 3),
             span("sdf", sdf, sdf_len),
             span("grad", grad, 3 * k),
             span("dfdt", dfdt, sdf_len),
@@ -669,7 +665,7 @@ pub unsafe extern "C" fn ds_eval_jacobian(
 ///
 /// # Safety
 /// `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `label` NULL or a
-/// writable `uint32_t`.
+/// writable `uint32_t` not overlapping `xyz`.
 #[no_mangle]
 pub unsafe extern "C" fn ds_label(
     model: *const DsModel,
@@ -680,7 +676,9 @@ pub unsafe extern "C" fn ds_label(
     guard("ds_label", || {
         // SAFETY: per this function's contract.
         let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
-        // SAFETY: per this function's contract (`x` is a copy).
+        check_array(label, 1, "label")?;
+        disjoint(&[span("xyz", xyz, 3), span("label", label, 1)])?;
+        // SAFETY: per this function's contract; disjoint from `xyz` (checked above).
         unsafe { output(label, 1, "label") }?[0] = model.label(x, t);
         Ok(DS_OK)
     })
@@ -912,6 +910,112 @@ mod tests {
         assert!(disjoint(&[("a", 100, 8), ("b", 108, 4)]).is_ok());
         assert!(disjoint(&[("a", 100, 8), ("b", 104, 4), ("c", 0, 1)]).is_err());
         assert!(disjoint(&[("a", 100, 0), ("b", 100, 4)]).is_ok());
+    }
+
+    fn model() -> *mut DsModel {
+        let bytes = format::ModelWriter::random_siren(&[16, 16], 2, 3).to_bytes();
+        let mut m = core::ptr::null_mut();
+        assert_eq!(
+            unsafe { ds_model_from_bytes(bytes.as_ptr(), bytes.len(), &mut m) },
+            DS_OK
+        );
+        m
+    }
+
+    /// The header documents DS_E_INVALID_ARGUMENT for an output overlapping an input: the
+    /// single-point calls copy the point, but still refuse as documented.
+    #[test]
+    fn single_point_outputs_over_the_point_are_refused() {
+        let m = model();
+        let mut buf = [0.25f32; 6];
+        let p = buf.as_mut_ptr();
+        assert_eq!(unsafe { ds_eval(m, p, 0.5, p, 2) }, DS_E_INVALID_ARGUMENT);
+        assert!(
+            last_error().contains("`xyz` and `sdf` overlap"),
+            "{}",
+            last_error()
+        );
+        assert_eq!(
+            unsafe { ds_eval(m, p, 0.5, p.add(2), 2) },
+            DS_E_INVALID_ARGUMENT
+        );
+        assert_eq!(unsafe { ds_eval(m, p, 0.5, p.add(3), 2) }, DS_OK);
+        let mut f = [0.0f32; 2];
+        let fp = f.as_mut_ptr();
+        assert_eq!(
+            unsafe { ds_eval_grad(m, p, 0.5, fp, p, 2) },
+            DS_E_INVALID_ARGUMENT
+        );
+        let mut g = [0.0f32; 6];
+        let gp = g.as_mut_ptr();
+        assert_eq!(
+            unsafe { ds_eval_jacobian(m, p, 0.5, fp, gp, p.add(1), 2) },
+            DS_E_INVALID_ARGUMENT
+        );
+        assert_eq!(
+            unsafe { ds_label(m, p, 0.5, p.add(2).cast()) },
+            DS_E_INVALID_ARGUMENT
+        );
+        unsafe { ds_model_free(m) };
+    }
+
+    /// Far finite queries are answered with finite values (they gave NaN at x = 1e9, t = 1e30).
+    #[test]
+    fn far_finite_queries_give_finite_values() {
+        let m = model();
+        let (mut f, mut g, mut d) = ([0.0f32; 2], [0.0f32; 6], [0.0f32; 2]);
+        for (x, t) in [
+            ([1e9f32, 0.0, 0.0], 0.5f32),
+            ([0.0; 3], 1e30),
+            ([-3e38; 3], -3e38),
+        ] {
+            let rc = unsafe {
+                ds_eval_jacobian(
+                    m,
+                    x.as_ptr(),
+                    t,
+                    f.as_mut_ptr(),
+                    g.as_mut_ptr(),
+                    d.as_mut_ptr(),
+                    2,
+                )
+            };
+            assert_eq!(rc, DS_OK);
+            let all = f.iter().chain(&g).chain(&d);
+            assert!(
+                all.clone().all(|v| v.is_finite()),
+                "{x:?} {t}: {f:?} {g:?} {d:?}"
+            );
+        }
+        unsafe { ds_model_free(m) };
+    }
+
+    /// A FIFO (whose open for reading blocks until a writer comes) and a device are refused
+    /// before they are opened.
+    #[cfg(unix)]
+    #[test]
+    fn model_open_refuses_fifos_and_devices() {
+        let dir = std::env::temp_dir().join(format!("ds-ffi-fifo-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let fifo = dir.join("model.dsm");
+        let _ = std::fs::remove_file(&fifo);
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.is_ok_and(|s| s.success()), "mkfifo");
+        for path in [fifo.to_str().unwrap(), "/dev/zero", "/"] {
+            let c = std::ffi::CString::new(path).unwrap();
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                let mut m = core::ptr::null_mut();
+                let rc = unsafe { ds_model_open(c.as_ptr(), &mut m) };
+                let _ = tx.send((rc, m.is_null(), last_error()));
+            });
+            let (rc, null, message) = rx
+                .recv_timeout(std::time::Duration::from_secs(10))
+                .unwrap_or_else(|_| panic!("ds_model_open({path}) blocked"));
+            assert_eq!(rc, DS_E_IO, "{path}: {message}");
+            assert!(null && message.contains("not a regular file"), "{message}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

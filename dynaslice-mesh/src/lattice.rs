@@ -12,6 +12,9 @@ const KEY_BITS: u32 = 20;
 /// Largest resolution accepted: far beyond what fits in memory, and it keeps every vertex index
 /// within `KEY_BITS` bits and an edge key (vertex key · 8 + direction) within 63 bits.
 pub const MAX_RESOLUTION: u32 = 1 << 16;
+/// Smallest resolution accepted: one cell along the longest axis has no inside vertex, so no
+/// surface.
+pub const MIN_RESOLUTION: u32 = 2;
 
 /// A lattice of cubic cells in world coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -29,8 +32,8 @@ impl Lattice {
     /// axes get the whole number of cells that covers them, centred on the box.
     pub fn covering(lo: [f32; 3], hi: [f32; 3], resolution: u32) -> Result<Lattice> {
         ensure!(
-            (2..=MAX_RESOLUTION).contains(&resolution),
-            "resolution {resolution} is outside 2..={MAX_RESOLUTION}"
+            (MIN_RESOLUTION..=MAX_RESOLUTION).contains(&resolution),
+            "resolution {resolution} is outside {MIN_RESOLUTION}..={MAX_RESOLUTION}"
         );
         let extent: [f64; 3] = std::array::from_fn(|a| hi[a] as f64 - lo[a] as f64);
         ensure!(

@@ -7,7 +7,8 @@
 //! 2. [`sampling`]: coarse-to-fine sampling of a lattice near the surfaces with the SDF distance
 //!    bound, then closure over sign-changing edges (watertightness).
 //! 3. [`polygonise`]: marching tetrahedra on the Kuhn subdivision (manifold, no ambiguities).
-//! 4. [`vertices`]: Newton steps onto F = 0 along ∇ₓF; normals and normal velocity.
+//! 4. [`vertices`]: Newton steps onto F = 0 along each vertex's lattice edge; normals and
+//!    normal velocity.
 //! 5. [`geometry`]: the [`Mesh`] type, volume, area, topology checks; [`io`]: file formats.
 //!
 //! [`planar`] contours the same fields on a plane (closed polygons, for RT Structure Sets).
@@ -44,7 +45,8 @@ pub struct Options {
     pub sampling: Sampling,
     /// Overlapping class surfaces or the Eq. 11 partition's boundaries.
     pub surfaces: Surfaces,
-    /// Newton steps per vertex (0 keeps the linearly interpolated positions).
+    /// Newton steps per vertex along its lattice edge (0 keeps the linearly interpolated
+    /// positions).
     pub newton_steps: u32,
 }
 
@@ -117,8 +119,9 @@ pub fn extract<S: Source>(
                 &field,
                 c,
                 &mut positions,
+                &polygons.edges,
                 options.newton_steps,
-                lattice.h as f32,
+                lattice.clip_box(),
             );
             jacobian_evaluations += positions.len() as u64 * (options.newton_steps as u64 + 1);
             Mesh {
@@ -169,16 +172,19 @@ mod tests {
         let topology = m.topology();
         assert!(topology.is_closed_manifold(), "{topology:?}");
         assert_eq!(topology.euler_characteristic, 2);
+        let mut worst = 0.0f32;
         assert!(rel(m.enclosed_volume(), 4.0 / 3.0 * PI * r * r * r) < 2e-3);
         assert!(rel(m.area(), 4.0 * PI * r * r) < 5e-3);
         for ((p, n), v) in m.positions.iter().zip(&m.normals).zip(&m.normal_velocity) {
             let d: [f32; 3] = [p[0] - 0.1, p[1] + 0.05, p[2] - 0.02];
             let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            // One Newton step on an exact SDF lands on the surface.
-            assert!((dist - r as f32).abs() < 1e-5, "{p:?}");
+            worst = worst.max((dist - r as f32).abs());
             assert!((0..3).map(|a| n[a] * d[a] / dist).sum::<f32>() > 0.9999);
             assert!((v - 0.2).abs() < 1e-6);
         }
+        // One safeguarded Newton step along the lattice edges: measured 5.4e-4 at h = 0.042
+        // (steps along ∇ₓF landed within 1e-5, but could fold meshes).
+        assert!(worst < 1e-3, "max |dist - r| = {worst:e}");
         // Without Newton steps the vertices stay on their lattice edges, inside the sphere's
         // chords: less accurate, still closed.
         let linear = Options {

@@ -23,10 +23,35 @@ const TETS: [[usize; 4]; 6] = [
     [0, 4, 6, 7],
 ];
 
+/// The lattice edge a mesh vertex lies on, in world coordinates from its lower lattice corner
+/// `from` to `to`, with F < 0 at one end and F ≥ 0 at the other. Vertices kept on their edges
+/// keep the mesh embedded (see [`crate::vertices`]). Positions are measured from the same end
+/// for every class, so a wall shared by two partition surfaces gets identical vertices.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Edge {
+    /// The lower lattice corner (f64: a vertex on an edge in the clip box's face stays in it).
+    pub from: [f64; 3],
+    /// The other end.
+    pub to: [f64; 3],
+    /// Whether F < 0 at `from` (else at `to`).
+    pub negative_at_from: bool,
+    /// Where the linear interpolant vanishes, as a fraction of the way from `from`.
+    pub s: f64,
+}
+
+impl Edge {
+    /// The point a fraction `s` of the way from `from` to `to`.
+    pub fn at(&self, s: f64) -> [f32; 3] {
+        std::array::from_fn(|a| (self.from[a] + s * (self.to[a] - self.from[a])) as f32)
+    }
+}
+
 /// A polygonised level set before vertex refinement.
 pub struct Polygons {
     /// World positions, interpolated linearly along each vertex's lattice edge.
     pub positions: Vec<[f32; 3]>,
+    /// Each vertex's lattice edge (same order as `positions`).
+    pub edges: Vec<Edge>,
     /// Triangles, oriented with normals towards increasing F.
     pub triangles: Vec<[u32; 3]>,
 }
@@ -36,6 +61,7 @@ pub fn polygonise(samples: &Samples, channel: usize) -> Polygons {
     let lattice = samples.lattice;
     let mut out = Polygons {
         positions: Vec::new(),
+        edges: Vec::new(),
         triangles: Vec::new(),
     };
     let mut vertex_of_edge: FxHashMap<u64, u32> = FxHashMap::default();
@@ -62,7 +88,9 @@ pub fn polygonise(samples: &Samples, channel: usize) -> Polygons {
                 let direction = (0..3).fold(0u64, |m, ax| m | ((pb[ax] - pa[ax]) as u64) << ax);
                 let edge_key = key(pa) << 3 | direction;
                 let index = *vertex_of_edge.entry(edge_key).or_insert_with(|| {
-                    out.positions.push(interpolate(&lattice, pa, fa, pb, fb));
+                    let edge = interpolate(&lattice, pa, fa, pb, fb);
+                    out.positions.push(edge.at(edge.s));
+                    out.edges.push(edge);
                     out.positions.len() as u32 - 1
                 });
                 (
@@ -101,13 +129,18 @@ pub fn polygonise(samples: &Samples, channel: usize) -> Polygons {
     out
 }
 
-/// Where the linear interpolant of (fa at a, fb at b) vanishes, in world coordinates.
-fn interpolate(lattice: &Lattice, a: [u32; 3], fa: f32, b: [u32; 3], fb: f32) -> [f32; 3] {
-    let s = fa as f64 / (fa as f64 - fb as f64);
-    std::array::from_fn(|ax| {
-        let x = a[ax] as f64 + s * (b[ax] as f64 - a[ax] as f64);
-        (lattice.origin[ax] + x * lattice.h) as f32
-    })
+/// The lattice edge from a (value fa) to b (value fb), one of them negative, with the zero of
+/// the linear interpolant on it.
+fn interpolate(lattice: &Lattice, a: [u32; 3], fa: f32, b: [u32; 3], fb: f32) -> Edge {
+    let world = |v: [u32; 3]| -> [f64; 3] {
+        std::array::from_fn(|ax| lattice.origin[ax] + v[ax] as f64 * lattice.h)
+    };
+    Edge {
+        from: world(a),
+        to: world(b),
+        negative_at_from: fa < 0.0,
+        s: fa as f64 / (fa as f64 - fb as f64),
+    }
 }
 
 /// The triangle's indices, ordered so that its normal (from the exact doubled midpoints) points

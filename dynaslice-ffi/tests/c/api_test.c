@@ -267,6 +267,13 @@ static void test_point_errors(const DsModel *m) {
     CHECK_RC(ds_eval_grad(m, x, 0.5f, f, NULL, REF_K), DS_E_NULL_POINTER);
     CHECK_RC(ds_eval_grad(m, x, 0.5f, f, g, REF_K - 1), DS_E_BUFFER_TOO_SMALL);
     CHECK_RC(ds_eval_grad(m, x, 0.5f, g + 6, g, REF_K), DS_E_INVALID_ARGUMENT); /* overlap */
+    /* An output over the query point is refused as documented, in every single-point call. */
+    float xf[3 * REF_K] = {1.0f, 2.0f, 3.0f};
+    CHECK_RC(ds_eval(m, xf, 0.5f, xf, REF_K), DS_E_INVALID_ARGUMENT);
+    CHECK(xf[0] == 1.0f && last_error_contains("overlap"));
+    CHECK_RC(ds_eval_grad(m, xf, 0.5f, f, xf, REF_K), DS_E_INVALID_ARGUMENT);
+    CHECK_RC(ds_eval_jacobian(m, xf, 0.5f, f, g, xf, REF_K), DS_E_INVALID_ARGUMENT);
+    CHECK_RC(ds_label(m, xf, 0.5f, (uint32_t *)(void *)(xf + 2)), DS_E_INVALID_ARGUMENT);
     CHECK_RC(ds_eval_jacobian(m, x, 0.5f, f, g, NULL, REF_K), DS_E_NULL_POINTER);
     CHECK_RC(ds_eval_jacobian(m, x, 0.5f, f, g, f, REF_K), DS_E_INVALID_ARGUMENT);
     CHECK_RC(ds_eval_jacobian(NULL, x, 0.5f, f, g, d, REF_K), DS_E_NULL_POINTER);
@@ -288,6 +295,20 @@ static void test_point_errors(const DsModel *m) {
         label = 0;
         CHECK_RC(ds_label(m, bad[i].x, bad[i].t, &label), DS_OK);
         CHECK(label == DS_LABEL_UNDEFINED);
+    }
+
+    /* Finite queries far outside the domain are answered with finite values and a label. */
+    const float far_x[3] = {1e9f, 0.0f, 0.0f};
+    const struct {
+        const float *x;
+        float t;
+    } far[] = {{far_x, 0.5f}, {x, 1e30f}, {x, -3.4e38f}};
+    for (size_t i = 0; i < sizeof far / sizeof far[0]; i++) {
+        CHECK_RC(ds_eval_jacobian(m, far[i].x, far[i].t, f, g, d, REF_K), DS_OK);
+        for (int k = 0; k < REF_K; k++) CHECK(isfinite(f[k]) && isfinite(d[k]));
+        for (int j = 0; j < 3 * REF_K; j++) CHECK(isfinite(g[j]));
+        CHECK_RC(ds_label(m, far[i].x, far[i].t, &label), DS_OK);
+        CHECK(label <= REF_K);
     }
 }
 
