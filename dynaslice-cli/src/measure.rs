@@ -82,11 +82,29 @@ pub struct Measurement {
     pub colors: Vec<[u8; 3]>,
 }
 
-/// The input's units and patient frame, from what the model's metadata records of its input
-/// (`input = PATH[ + PATH…]`, the first path's extension; a manifest's first entry): DICOM is
-/// LPS in mm, NIfTI and NRRD RAS in mm, anything else (`.csl`, native JSON) plain units in an
-/// unnamed frame. A model without the line is taken as plain.
+/// The input's units and patient frame: what the model records (`units = …`, `space = …`,
+/// [`dynaslice_model::ModelFile::units`]); for models written before those lines, from the
+/// input's file name (`input = PATH[ + PATH…]`, the first path's extension; a manifest's first
+/// entry): DICOM is LPS in mm, NIfTI and NRRD RAS in mm, anything else (`.csl`, native JSON)
+/// plain units in an unnamed frame. A model without either is taken as plain.
 pub fn units_and_frame(model: &Model) -> (Units, Frame) {
+    // What the model records of its input (models since the model service): its units and
+    // patient frame.
+    let recorded = |key: &str| {
+        model.metadata().lines().find_map(|l| {
+            let (k, v) = l.split_once('=')?;
+            (k.trim() == key).then(|| v.trim().to_string())
+        })
+    };
+    let units = recorded(Units::METADATA_KEY).and_then(|v| Units::from_name(&v));
+    let space = recorded(Space::METADATA_KEY).and_then(|v| Space::from_name(&v));
+    match (units, space) {
+        (Some(Units::Plain), _) => return (Units::Plain, Frame::Plain),
+        (Some(Units::Millimetres), Some(Space::Lps)) => return (Units::Millimetres, Frame::Lps),
+        (Some(Units::Millimetres), Some(Space::Ras)) => return (Units::Millimetres, Frame::Ras),
+        _ => {}
+    }
+    // Older models: from the input's file name.
     let input = model
         .metadata()
         .lines()

@@ -143,6 +143,23 @@ impl Units {
             Units::Plain => "units",
         }
     }
+
+    /// A volume's unit for display: `mL`, or `units³`.
+    pub fn volume(self) -> &'static str {
+        match self {
+            Units::Millimetres => "mL",
+            Units::Plain => "units³",
+        }
+    }
+
+    /// A volume in the world's length unit cubed, in [`Units::volume`]'s unit (mm³ / 1000 =
+    /// mL).
+    pub fn from_world_volume(self, v: f64) -> f64 {
+        match self {
+            Units::Millimetres => v / 1000.0,
+            Units::Plain => v,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -15,40 +15,8 @@ use anyhow::{ensure, Result};
 use dynaslice_core::Model;
 use std::fmt::Write as _;
 
-/// The length unit of a model's world.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Units {
-    /// Millimetres (DICOM, NIfTI): volumes are reported in mL.
-    Millimetres,
-    /// Unknown (`.csl`, native JSON): the input's own plain units.
-    Plain,
-}
-
-impl Units {
-    /// The length unit's name: `mm` or `units`.
-    pub fn length(self) -> &'static str {
-        match self {
-            Units::Millimetres => "mm",
-            Units::Plain => "units",
-        }
-    }
-
-    /// The volume unit's name: `mL` or `units³`.
-    pub fn volume(self) -> &'static str {
-        match self {
-            Units::Millimetres => "mL",
-            Units::Plain => "units³",
-        }
-    }
-
-    /// A world volume (length unit cubed) in [`Units::volume`]: mm³ / 1000 = mL.
-    pub fn from_world_volume(self, v: f64) -> f64 {
-        match self {
-            Units::Millimetres => v / 1000.0,
-            Units::Plain => v,
-        }
-    }
-}
+/// The length unit of a model's world: the input's, as the model records it.
+pub use dynaslice_data::Units;
 
 /// The patient coordinate frame results are given in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,7 +1,7 @@
 //! Helpers shared by the command-line tests.
 
 // Each test file uses some of them.
-#![allow(dead_code)]
+#![allow(dead_code, unused_imports)]
 
 pub use dynaslice_test_support::fixtures::{succeeded, write_sequence};
 use std::path::Path;
