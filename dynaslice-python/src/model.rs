@@ -78,7 +78,7 @@ impl PyModel {
         let n = view.len();
         let times = TimesArg::extract(t, n)?;
         let model = self.model();
-        if let Some((i, t)) = times.first_outside(&model.domain()) {
+        if let Some((i, t)) = times.first_outside(model.domain()) {
             let at = if n > 1 {
                 format!(" (point {i})")
             } else {
