@@ -12,7 +12,7 @@ use super::loss::LossArgs;
 use super::options::{count, f32_in, non_negative_f64_to, positive_f32, positive_f64_to};
 use super::output::{Kind, Plan};
 use super::samples::SampleArgs;
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use dynaslice_core::format::MAX_WIDTH;
 use dynaslice_figures::plot::loss_curve;
 use dynaslice_train::fit::{fit, InputRecord, Observer, RunFiles};
@@ -216,6 +216,7 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     let input = a.input.spec();
+    errln!("reading {}", input.describe());
     let seq = input.read()?;
     let (space, units) = input.space()?;
     let record = InputRecord {
@@ -242,6 +243,13 @@ pub fn run(a: Args) -> Result<()> {
     trained.write(&files)?;
     let rows: Vec<(u64, &[f64])> = trained.rows.iter().map(|r| (r.0, &r.1[..])).collect();
     loss_curve(&files.png, &TERM_NAMES, &rows)?;
+    // Outputs that contradict the data are reported: a class reaching far past its contours,
+    // or far larger than they allow (dynaslice info MODEL INPUT repeats the check).
+    errln!("checking the classes' extents against their contours");
+    let model = trained.bytes.model().map_err(|e| anyhow!("{e}"))?;
+    for w in dynaslice_metrics::extent::check_model(&model, &seq)? {
+        log::warn!("{}: {w}", files.model.display());
+    }
     errln!(
         "wrote {} after {} steps in {:.1} s ({} bytes); loss log {}, curve {}",
         files.model.display(),
@@ -254,7 +262,7 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// The run on the terminal: a progress bar there, a log line every 10 s elsewhere; Ctrl-C
+/// The run on the terminal: a progress bar there, a log line every 5 s elsewhere; Ctrl-C
 /// stops it.
 struct Console {
     bar: Option<ProgressBar>,
@@ -305,7 +313,7 @@ impl Observer for Console {
                 bar.set_position(p.step);
                 bar.set_message(report(p));
             }
-            None if self.last_log.elapsed() >= Duration::from_secs(10) || p.step == p.steps => {
+            None if self.last_log.elapsed() >= Duration::from_secs(5) || p.step == p.steps => {
                 errln!(
                     "step {}/{} {:.1} s {}",
                     p.step,

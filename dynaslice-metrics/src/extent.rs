@@ -272,8 +272,12 @@ pub fn cell(model: &Model, resolution: u32) -> f64 {
     f64::from(longest) / f64::from(resolution.max(1))
 }
 
+/// Frames of the input [`check_model`] meshes at most.
+pub const CHECK_FRAMES: usize = 5;
+
 /// The checks of a model against the input `seq` it was trained on (the same classes in the
-/// same order): its classes' surfaces at every frame time of `seq` (a static model's one time)
+/// same order): its classes' surfaces at up to [`CHECK_FRAMES`] frame times of `seq` (a static
+/// model's one time)
 /// at [`DEFAULT_RESOLUTION`], against their contours ([`against_contours`] with
 /// [`DEFAULT_TOLERANCE`]) and the domain's edge ([`against_domain`]). For a command to print
 /// after training or in `dynaslice info --input`.
@@ -281,6 +285,14 @@ pub fn check_model(model: &Model, seq: &Sequence) -> Result<Vec<Warning>> {
     let mut times: Vec<f32> = seq.frames().iter().map(|f| f.time as f32).collect();
     if model.omega_t_max() == 0.0 {
         times.truncate(1);
+    }
+    // At most CHECK_FRAMES of them, evenly spread (first and last included): the check meshes
+    // every class at each, and a cycle's spurious structure shows at any of its frames.
+    if times.len() > CHECK_FRAMES {
+        let n = times.len() - 1;
+        times = (0..CHECK_FRAMES)
+            .map(|i| times[i * n / (CHECK_FRAMES - 1)])
+            .collect();
     }
     let extents = class_extents(model, &times, DEFAULT_RESOLUTION, |_| {})?;
     let mut warnings = against_contours(&extents, &contour_bounds(seq), DEFAULT_TOLERANCE)?;

@@ -202,6 +202,18 @@ pub fn fit(
     };
     let options = spec.options(omega_t_max, files.map(|f| f.checkpoint.clone()));
     let counts = spec.counts();
+    observer.note(&format!(
+        "{}: {} classes, {} frames, {} planes; domain centre {:?}, half-width {:.4}, time {}..{}; \
+         ω_t^max {omega_t_max}; building the sampling index (the exact in-plane distances)",
+        input.description,
+        classes.len(),
+        seq.frames().len(),
+        seq.frames().iter().map(|f| f.planes.len()).sum::<usize>(),
+        domain.center,
+        domain.scale[0],
+        domain.time_origin,
+        domain.time_origin + domain.time_span,
+    ));
     let mut sampler = DataSampler::new(seq, domain, counts);
     if let Some(w) = &spec.class_weights {
         sampler = sampler.with_class_weights(w).map_err(|message| SpecError {
