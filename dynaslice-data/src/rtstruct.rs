@@ -264,6 +264,18 @@ fn read_object_file(path: &Path) -> Result<InMemDicomObject> {
     Ok(obj)
 }
 
+/// The ROI Number (3006,0022) of item `i` (0-based) of the StructureSetROISequence.
+fn roi_number(item: &InMemDicomObject, i: usize) -> Result<i32> {
+    item.get(tags::ROI_NUMBER)
+        .and_then(|e| e.to_int::<i32>().ok())
+        .ok_or_else(|| {
+            dicom(format!(
+                "StructureSetROISequence item {}: no valid ROI Number (3006,0022)",
+                i + 1
+            ))
+        })
+}
+
 /// Runs `f`, which calls dicom-rs's parsers: parts of dicom-rs assert structural invariants of
 /// the file with panics (dicom-parser 0.10's lazy reader did on an item header outside any
 /// sequence); any such panic becomes an error here, so that no input makes the reader panic.
@@ -318,15 +330,7 @@ fn parse_rois(obj: &InMemDicomObject, path: &Path) -> Result<Vec<Roi>> {
     // ROI Number -> name, from the StructureSetROISequence.
     let mut names: BTreeMap<i32, String> = BTreeMap::new();
     for (i, item) in defined.iter().enumerate() {
-        let number = item
-            .get(tags::ROI_NUMBER)
-            .and_then(|e| e.to_int::<i32>().ok())
-            .ok_or_else(|| {
-                dicom(format!(
-                    "StructureSetROISequence item {}: no valid ROI Number (3006,0022)",
-                    i + 1
-                ))
-            })?;
+        let number = roi_number(item, i)?;
         let mut name = get_text(item, tags::ROI_NAME).unwrap_or_default();
         if name.is_empty() {
             name = format!("ROI {number}");

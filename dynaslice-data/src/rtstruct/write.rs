@@ -271,15 +271,7 @@ impl Template {
         };
         let mut rois = Vec::new();
         for (i, item) in defined.iter().enumerate() {
-            let number = item
-                .get(tags::ROI_NUMBER)
-                .and_then(|e| e.to_int::<i32>().ok())
-                .ok_or_else(|| {
-                    dicom(format!(
-                        "StructureSetROISequence item {}: no valid ROI Number (3006,0022)",
-                        i + 1
-                    ))
-                })?;
+            let number = super::roi_number(item, i)?;
             rois.push(TemplateRoi {
                 number,
                 name: get_text(item, tags::ROI_NAME).unwrap_or_default(),
