@@ -266,6 +266,14 @@ fn bounds_grid(a: &Args, model: &Model, is_static: bool) -> Result<VoxelGrid> {
             [longest / 128.0; 3]
         }
     };
+    // A voxel wider than the box along every axis is one voxel of nothing: a mistyped value.
+    if (0..3).all(|i| spacing[i] > hi[i] - lo[i]) {
+        bail!(
+            "--spacing {spacing:?} is wider than the box (sides {:?}, {lo:?} to {hi:?}) along every \
+             axis: the volume would be a single voxel",
+            [0, 1, 2].map(|i| hi[i] - lo[i])
+        );
+    }
     let times = match a.times {
         Some(series) => series.times(),
         None if is_static => vec![f64::from(model.domain().time_range().0)],

@@ -87,7 +87,24 @@ enum Command {
 /// Parses the process arguments and runs the chosen subcommand.
 pub fn main() -> ExitCode {
     warnings::install();
-    match run(Cli::parse().command) {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if e.use_stderr() => e.exit(),
+        // --help and --version: written as any output is, so a full disk is an error and a
+        // closed pipe ends quietly (clap's own printing succeeds on both).
+        Err(help) => {
+            return finish(
+                console::out_bytes(help.render().to_string().as_bytes()).map_err(Into::into),
+            )
+        }
+    };
+    finish(run(cli.command))
+}
+
+/// The process's exit: success, a closed standard output (quietly, as ripgrep does), or the
+/// error on one line.
+fn finish(result: anyhow::Result<()>) -> ExitCode {
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if console::is_closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {

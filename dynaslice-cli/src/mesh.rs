@@ -83,7 +83,8 @@ pub struct Args {
     #[arg(long)]
     dense: bool,
     /// Newton steps per vertex along ∇ₓf (0: linear interpolation on the lattice edges).
-    #[arg(long, default_value_t = 1, value_parser = count(0, MAX_NEWTON_STEPS))]
+    #[arg(long, default_value_t = dynaslice_mesh::DEFAULT_NEWTON_STEPS,
+          value_parser = count(0, MAX_NEWTON_STEPS))]
     newton_steps: u32,
     /// Worker threads (default: one per core).
     #[arg(long, value_parser = count(1, MAX_THREADS))]

@@ -58,10 +58,16 @@ impl Default for Options {
                 safety: DEFAULT_SAFETY,
             },
             surfaces: Surfaces::Overlapping,
-            newton_steps: 1,
+            newton_steps: DEFAULT_NEWTON_STEPS,
         }
     }
 }
+
+/// Newton steps per vertex along its lattice edge by default (`dynaslice mesh
+/// --newton-steps`, Python's `newton_steps`). A step that would leave the edge's sign-change
+/// interval falls back to bisection, so vertices never cross and meshes cannot fold; one step
+/// leaves them within 5.4·10⁻⁴ of the analytic sphere at a cell of 0.042.
+pub const DEFAULT_NEWTON_STEPS: u32 = 1;
 
 /// What an extraction cost.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -25,7 +25,9 @@ def trained(tmp_path_factory):
 
 def test_training_writes_a_model_that_learnt_the_spheres(trained):
     model, d, seen = trained
-    assert (d / "spheres.dsm").exists() and (d / "spheres.dsm.ckpt").exists()
+    # The model and its loss log; a finished run leaves no checkpoint behind.
+    assert (d / "spheres.dsm").exists() and (d / "spheres.dsm.loss.csv").exists()
+    assert not (d / "spheres.dsm.ckpt").exists()
     assert dynaslice.Model.load(d / "spheres.dsm").to_bytes() == model.to_bytes()
     assert model.classes == [("ball", 3, (200, 30, 60)), ("moon", 7, None)]
     # The input's colour where it gave one, else the palette's second colour (Tableau 10).
@@ -54,7 +56,9 @@ def test_mesh_of_the_trained_model(trained):
     radius = np.linalg.norm(v, axis=1)
     near = radius < 0.6
     assert near.sum() > 1000
-    assert np.abs(model.sdf(v[near], 0.5)[:, 0]).max() < 1e-3
+    # One Newton step confined to its lattice edge (meshes cannot fold; docs/meshing.md):
+    # within a few thousandths of the cell (0.042 here) of the zero level set.
+    assert np.abs(model.sdf(v[near], 0.5)[:, 0]).max() < 5e-3
     assert abs(np.median(radius[near]) - 0.40) < 0.02
     assert abs(np.median(vn[near]) - 0.1) < 0.03
     both = model.mesh(0.5, resolution=32)
