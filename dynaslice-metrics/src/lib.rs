@@ -8,6 +8,7 @@
 //! - [`volume`]: each class's volume over time.
 //! - [`itv`]: the internal target volume, a class's union over a cycle, as a mask and a mesh.
 //! - [`motion`]: per class over a cycle: volumes, centroids, amplitudes, ejection fraction.
+//! - [`support`]: components of a class that the input's contours do not support.
 //! - [`extent`]: classes whose extent or volume the data does not support (spurious structure).
 
 #![warn(missing_docs)]
@@ -20,6 +21,7 @@ pub mod inside;
 pub mod iou;
 pub mod itv;
 pub mod motion;
+pub mod support;
 pub mod volume;
 
 /// Which frames an average is over.
