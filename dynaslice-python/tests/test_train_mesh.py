@@ -141,7 +141,9 @@ def test_train_errors_and_interrupts(tmp_path):
     # Ctrl-C (SIGINT's flag, as the terminal sets it) stops, saves and raises. Python's own
     # SIGINT handler is installed for it: a process started with SIGINT ignored (a background
     # job, nohup, some CI runners) has none, and there an interrupt rightly does nothing.
+    # A fresh start: the stopped run's state goes (kept, it would need resume=True or force=True).
     (tmp_path / "m.dsm.ckpt").unlink()
+    (tmp_path / "m.dsm.ckpt.loss.csv").unlink()
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(1.0, _thread.interrupt_main)
     try:
