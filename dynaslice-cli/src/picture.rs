@@ -316,8 +316,10 @@ pub fn run(a: Args) -> Result<()> {
         "drawing the model's labels on the plane: panels",
         panels.len() as u64,
     );
+    // Ticks, scale bar and plane position in the input's unit (mm for DICOM, NIfTI, NRRD).
+    let unit = file.units().map_or("world units", |u| u.length());
     write_via(&a.output, |tmp| {
-        plane_labels(&model, &classes, &drawn_as, plane, &panels, tmp)
+        plane_labels(&model, &classes, &drawn_as, plane, &panels, unit, tmp)
     })?;
     progress.set_position(panels.len() as u64);
     progress.finish();

@@ -37,10 +37,10 @@ pub struct Panel<'a> {
     pub contours: Option<&'a Plane>,
 }
 
-/// The plane by orientation and position: `axial z = 12.0 mm`, `coronal y = …`,
+/// The plane by orientation and position, coordinates in `unit` (the input's): `axial z = 12.0 mm`, `coronal y = …`,
 /// `sagittal x = …` when its normal is within about 2.6° of a world axis, else
 /// `oblique through (x, y, z) mm` at the centre of its region of interest.
-pub fn plane_name(plane: &Plane) -> String {
+pub fn plane_name(plane: &Plane, unit: &str) -> String {
     let n = plane.normal();
     let centre = plane.to_world([
         0.5 * (plane.roi.min[0] + plane.roi.max[0]),
@@ -52,11 +52,11 @@ pub fn plane_name(plane: &Plane) -> String {
     {
         if n[k].abs() > ALIGNED {
             // The plane's position along its normal axis, at the region's centre.
-            return format!("{name} {axis} = {:.1} mm", centre[k]);
+            return format!("{name} {axis} = {:.1} {unit}", centre[k]);
         }
     }
     format!(
-        "oblique through ({:.1}, {:.1}, {:.1}) mm",
+        "oblique through ({:.1}, {:.1}, {:.1}) {unit}",
         centre[0], centre[1], centre[2]
     )
 }
@@ -113,20 +113,21 @@ fn axis_scale(
     other: [f64; 3],
     other_mid: f64,
     name: &str,
+    unit: &str,
 ) -> AxisScale {
     for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
         if dir[k].abs() > ALIGNED {
             return AxisScale {
                 offset: plane.origin[k] + other_mid * other[k],
                 scale: dir[k].signum(),
-                caption: format!("{axis} (mm)"),
+                caption: format!("{axis} ({unit})"),
             };
         }
     }
     AxisScale {
         offset: 0.0,
         scale: 1.0,
-        caption: format!("mm along plane {name} ({})", direction_letters(dir)),
+        caption: format!("{unit} along plane {name} ({})", direction_letters(dir)),
     }
 }
 
@@ -175,6 +176,7 @@ pub fn plane_labels(
     drawn_as: &[Option<usize>],
     plane: &Plane,
     panels: &[Panel],
+    unit: &str,
     path: &Path,
 ) -> Result<()> {
     let err = |e: &dyn std::fmt::Display| anyhow!("cannot draw {}: {e}", path.display());
@@ -264,13 +266,13 @@ pub fn plane_labels(
         let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
         let d = |r: Result<(), DrawingAreaErrorKind<_>>| r.map_err(|e| err(&e));
         d(root.draw(&Text::new(
-            plane_name(plane),
+            plane_name(plane, unit),
             (margin as i32, 8),
             ("sans-serif", 22),
         )))?;
         let (u_axis, v_axis) = (
-            axis_scale(plane, plane.u, plane.v, 0.5 * (lo[1] + hi[1]), "u"),
-            axis_scale(plane, plane.v, plane.u, 0.5 * (lo[0] + hi[0]), "v"),
+            axis_scale(plane, plane.u, plane.v, 0.5 * (lo[1] + hi[1]), "u", unit),
+            axis_scale(plane, plane.v, plane.u, 0.5 * (lo[0] + hi[0]), "v", unit),
         );
         let top = (heading_h + title_h) as i32;
         let small = ("sans-serif", 14).into_font();
@@ -358,7 +360,7 @@ pub fn plane_labels(
             let bar_px = (length / mm_per_px).round() as i32;
             let (bx1, by) = (x1, y1 + 54);
             let bx0 = bx1 - bar_px;
-            let label = format!("{length} mm");
+            let label = format!("{length} {unit}");
             let tw = legend::text_width(&label, 14) as i32;
             d(root.draw(&Rectangle::new([(bx0, by), (bx1, by + 4)], BLACK.filled())))?;
             d(root.draw(&Text::new(label, (bx0 - tw - 6, by - 5), small.clone())))?;
@@ -402,15 +404,18 @@ mod tests {
     #[test]
     fn planes_are_named_by_orientation_and_position() {
         let axial = plane([0.0, 0.0, 12.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
-        assert_eq!(plane_name(&axial), "axial z = 12.0 mm");
+        assert_eq!(plane_name(&axial, "mm"), "axial z = 12.0 mm");
         let coronal = plane([5.0, -7.25, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
-        assert_eq!(plane_name(&coronal), "coronal y = -7.2 mm");
+        assert_eq!(plane_name(&coronal, "mm"), "coronal y = -7.2 mm");
         let sagittal = plane([3.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
-        assert_eq!(plane_name(&sagittal), "sagittal x = 3.0 mm");
+        assert_eq!(plane_name(&sagittal, "mm"), "sagittal x = 3.0 mm");
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let oblique = plane([0.0, 0.0, 0.0], [s, s, 0.0], [0.0, 0.0, 1.0]);
         // ROI centre (10, 0) in plane coordinates.
-        assert_eq!(plane_name(&oblique), "oblique through (7.1, 7.1, 0.0) mm");
+        assert_eq!(
+            plane_name(&oblique, "mm"),
+            "oblique through (7.1, 7.1, 0.0) mm"
+        );
     }
 
     #[test]
@@ -430,7 +435,7 @@ mod tests {
         assert_eq!(nice_step(0.7, 5.0), 0.2);
         // A plane whose u is world −x, origin x = 100: plane u = 10 is world x = 90.
         let p = plane([100.0, 0.0, 5.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
-        let axis = axis_scale(&p, p.u, p.v, 0.0, "u");
+        let axis = axis_scale(&p, p.u, p.v, 0.0, "u", "mm");
         assert_eq!(axis.caption, "x (mm)");
         let t = ticks(&axis, -10.0, 30.0, 4.0);
         assert!(
@@ -442,7 +447,7 @@ mod tests {
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let o = plane([0.0; 3], [s, s, 0.0], [0.0, 0.0, 1.0]);
         assert_eq!(
-            axis_scale(&o, o.u, o.v, 0.0, "u").caption,
+            axis_scale(&o, o.u, o.v, 0.0, "u", "mm").caption,
             "mm along plane u (RA)"
         );
     }

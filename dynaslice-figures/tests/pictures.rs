@@ -109,7 +109,7 @@ fn slice_picture_colours_classes_and_fits_a_41_class_legend() {
     ];
     let drawn_as = match_classes(&classes(), sequence.classes());
     assert_eq!(drawn_as, (0..CLASSES).map(Some).collect::<Vec<_>>());
-    plane_labels(&model, &classes(), &drawn_as, &plane, &panels, &path).unwrap();
+    plane_labels(&model, &classes(), &drawn_as, &plane, &panels, "mm", &path).unwrap();
     let img = image::open(&path).unwrap().to_rgb8();
     // Two 480-pixel panels side by side; the legend's 41 entries in several columns below.
     assert!(
@@ -176,7 +176,16 @@ fn slice_picture_draws_only_the_models_classes_and_annotates_off_the_data() {
         title: "t = 0".into(),
         contours: Some(&plane),
     }];
-    plane_labels(&model, &model_classes, &drawn_as, &plane, &panels, &path).unwrap();
+    plane_labels(
+        &model,
+        &model_classes,
+        &drawn_as,
+        &plane,
+        &panels,
+        "mm",
+        &path,
+    )
+    .unwrap();
     let img = image::open(&path).unwrap().to_rgb8();
     let count = |c: RGBColor| img.pixels().filter(|p| p.0 == [c.0, c.1, c.2]).count();
     // No other class's contour or swatch anywhere.
