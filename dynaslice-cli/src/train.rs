@@ -11,6 +11,7 @@ use super::input::InputArgs;
 use super::loss::LossArgs;
 use super::options::{count, f32_in, non_negative_f64_to, positive_f32, positive_f64_to};
 use super::output::{Kind, Plan};
+use super::progress::Progress as Bar;
 use super::samples::SampleArgs;
 use anyhow::{anyhow, bail, Result};
 use dynaslice_core::format::MAX_WIDTH;
@@ -245,9 +246,22 @@ pub fn run(a: Args) -> Result<()> {
     loss_curve(&files.png, &TERM_NAMES, &rows)?;
     // Outputs that contradict the data are reported: a class reaching far past its contours,
     // or far larger than they allow (dynaslice info MODEL INPUT repeats the check).
-    errln!("checking the classes' extents against their contours");
     let model = trained.bytes.model().map_err(|e| anyhow!("{e}"))?;
-    for w in dynaslice_metrics::extent::check_model(&model, &seq)? {
+    let mut progress: Option<Bar> = None;
+    let warnings = dynaslice_metrics::extent::check_model(&model, &seq, |done, total| {
+        progress
+            .get_or_insert_with(|| {
+                Bar::new(
+                    "checking the classes' extents against their contours: time",
+                    total as u64,
+                )
+            })
+            .set_position(done as u64)
+    })?;
+    if let Some(p) = progress {
+        p.finish();
+    }
+    for w in warnings {
         log::warn!("{}: {w}", files.model.display());
     }
     errln!(

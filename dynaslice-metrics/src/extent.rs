@@ -281,7 +281,12 @@ pub const CHECK_FRAMES: usize = 5;
 /// at [`DEFAULT_RESOLUTION`], against their contours ([`against_contours`] with
 /// [`DEFAULT_TOLERANCE`]) and the domain's edge ([`against_domain`]). For a command to print
 /// after training or in `dynaslice info --input`.
-pub fn check_model(model: &Model, seq: &Sequence) -> Result<Vec<Warning>> {
+/// `progress` is called with (times meshed, times to mesh) before the first and after each.
+pub fn check_model(
+    model: &Model,
+    seq: &Sequence,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Vec<Warning>> {
     let mut times: Vec<f32> = seq.frames().iter().map(|f| f.time as f32).collect();
     if model.omega_t_max() == 0.0 {
         times.truncate(1);
@@ -294,7 +299,9 @@ pub fn check_model(model: &Model, seq: &Sequence) -> Result<Vec<Warning>> {
             .map(|i| times[i * n / (CHECK_FRAMES - 1)])
             .collect();
     }
-    let extents = class_extents(model, &times, DEFAULT_RESOLUTION, |_| {})?;
+    let total = times.len();
+    progress(0, total);
+    let extents = class_extents(model, &times, DEFAULT_RESOLUTION, |i| progress(i, total))?;
     let mut warnings = against_contours(&extents, &contour_bounds(seq), DEFAULT_TOLERANCE)?;
     warnings.extend(against_domain(
         &extents,
