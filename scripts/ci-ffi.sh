@@ -74,7 +74,7 @@ for case in "1 0" "1 0.25" "2 0.5"; do
     set -- $case
     "$work/vtk/dynaslice_surface" "$work/spheres.dsm" "$1" "$2" 96 "$work/class$1.vtp" | tee "$work/vtk.out"
     "$dynaslice" mesh "$work/spheres.dsm" --time "$2" --class "$1" --resolution 128 \
-        -o "$work/own$1.ply" >"$work/own.out" 2>&1 || { cat "$work/own.out"; exit 1; }
+        -o "$work/own$1_$2.ply" >"$work/own.out" 2>&1 || { cat "$work/own.out"; exit 1; }
     counted=$("$fixture" volume "$work/spheres.dsm" "$1" "$2" 256)
     python3 - "$work/vtk.out" "$work/own.out" "$counted" "$work/class$1.vtp" <<'PY'
 import os, re, sys
