@@ -115,6 +115,9 @@ impl Checkpoint {
         if word(3) != n as u64 {
             bail!(what("parameter count differs from this network"));
         }
+        if header == HEADER && word(4) == 0 && (word(5) != 0 || word(6) != 0) {
+            bail!(what("a schedule anchor without its length"));
+        }
         let plan = match header {
             HEADER if word(4) > 0 => Some(SchedulePlan {
                 length: word(4),

@@ -28,6 +28,7 @@ use dynaslice_data::{csl, native, ClassInfo, LabelTable, Sequence};
 use dynaslice_test_support::fixtures::{csl_file, SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE};
 use dynaslice_train::adam::{Adam, AdamConfig};
 use dynaslice_train::checkpoint::Checkpoint;
+use dynaslice_train::trainer::SchedulePlan;
 
 /// A named input: the file name it is written under and its bytes.
 pub type Named = (String, Vec<u8>);
@@ -622,7 +623,7 @@ fn deflated(explicit: &[u8]) -> Result<Vec<u8>, Error> {
 /// as the file's own run, CRC recomputed.
 pub const CHECKPOINT_OWN_RUN: u8 = 0b01;
 
-/// Checkpoints written by `Checkpoint::save` (format `DSCKPT02`, with and without a planned
+/// Checkpoints written by `Checkpoint::save` (format `DSCKPT03`, with and without a planned
 /// schedule length, 0 to 5 parameters) and one in the first format (`DSCKPT01`), each behind
 /// the target's mode byte.
 pub fn checkpoint_files(work: &Path) -> Result<Vec<Named>, Error> {
@@ -637,17 +638,21 @@ pub fn checkpoint_files(work: &Path) -> Result<Vec<Named>, Error> {
             step: 7 + n as u64,
             params,
             adam,
-            planned_steps: planned,
+            plan: planned.map(|length| SchedulePlan {
+                anchor_step: 12,
+                anchor_phase: 0.25,
+                length,
+            }),
         };
         let path = work.join("seed.ckpt");
         c.save(&path)?;
         let mut bytes = vec![CHECKPOINT_OWN_RUN];
         bytes.extend(std::fs::read(&path)?);
-        out.push((format!("v2_n{n}.ckpt"), bytes));
+        out.push((format!("v3_n{n}.ckpt"), bytes));
     }
     // The first format: the second file without its planned length, CRC written anew.
-    let v2 = &out[1].1[1..];
-    let mut v1 = [b"DSCKPT01".as_slice(), &v2[8..40], &v2[48..v2.len() - 4]].concat();
+    let v3 = &out[1].1[1..];
+    let mut v1 = [b"DSCKPT01".as_slice(), &v3[8..40], &v3[64..v3.len() - 4]].concat();
     let crc = dynaslice_core::crc32(&v1);
     v1.extend_from_slice(&crc.to_le_bytes());
     let mut bytes = vec![CHECKPOINT_OWN_RUN];

@@ -22,6 +22,7 @@ use dynaslice_data::rtstruct::{self, RoiExtent};
 use dynaslice_data::{csl, manifest, native, nrrd, LabelTable, Sequence};
 use dynaslice_train::adam::{Adam, AdamConfig};
 use dynaslice_train::checkpoint::Checkpoint;
+use dynaslice_train::trainer::SchedulePlan;
 
 use crate::fixtures;
 
@@ -244,8 +245,10 @@ pub fn checkpoint(data: &[u8]) {
     };
     let header = if bytes.starts_with(b"DSCKPT01") {
         40
-    } else {
+    } else if bytes.starts_with(b"DSCKPT02") {
         48
+    } else {
+        64
     };
     let by_length = bytes.len().saturating_sub(header + 4) / 12;
     let n = if mode & 4 != 0 {
@@ -263,21 +266,37 @@ pub fn checkpoint(data: &[u8]) {
 }
 
 /// Checks that `c` holds exactly the fields of `bytes` (the documented layout: magic, u64
-/// fingerprint, step, Adam t, n, planned length in `DSCKPT02` only, then n f32 each of
-/// parameters, m and v, CRC-32), with `n` parameters and the defaults' hyper-parameters.
+/// fingerprint, step, Adam t, n, the plan (`DSCKPT03`: length, anchor step, anchor phase;
+/// `DSCKPT02`: length; `DSCKPT01`: none), then n f32 each of parameters, m and v, CRC-32), with
+/// `n` parameters and the defaults' hyper-parameters.
 pub fn checkpoint_fields_match(c: &Checkpoint, bytes: &[u8], n: usize) {
-    let v2 = bytes.starts_with(b"DSCKPT02");
-    let mut expect = if v2 { b"DSCKPT02" } else { b"DSCKPT01" }.to_vec();
-    let mut words = vec![c.fingerprint, c.step, c.adam.t, n as u64];
-    if v2 {
-        words.push(c.planned_steps.unwrap_or(0));
+    let magic: &[u8; 8] = if bytes.starts_with(b"DSCKPT01") {
+        b"DSCKPT01"
+    } else if bytes.starts_with(b"DSCKPT02") {
+        b"DSCKPT02"
     } else {
-        assert_eq!(
-            c.planned_steps, None,
-            "a first-format checkpoint has a planned length"
-        );
+        b"DSCKPT03"
+    };
+    let mut expect = magic.to_vec();
+    let mut words = vec![c.fingerprint, c.step, c.adam.t, n as u64];
+    match magic {
+        b"DSCKPT03" => words.extend(c.plan.map_or([0, 0, 0], |p| {
+            [p.length, p.anchor_step, p.anchor_phase.to_bits()]
+        })),
+        b"DSCKPT02" => {
+            words.push(c.plan.map_or(0, |p| p.length));
+            assert!(
+                c.plan.is_none_or(|p| p == SchedulePlan::plain(p.length)),
+                "a second-format checkpoint's plan is not a plain one"
+            );
+        }
+        _ => assert_eq!(c.plan, None, "a first-format checkpoint has a plan"),
     }
-    assert_ne!(c.planned_steps, Some(0), "planned length 0 means none");
+    assert!(
+        c.plan
+            .is_none_or(|p| p.length > 0 && (0.0..=1.0).contains(&p.anchor_phase)),
+        "a plan of length 0 or a phase outside [0, 1]"
+    );
     for w in words {
         expect.extend_from_slice(&w.to_le_bytes());
     }
@@ -360,8 +379,10 @@ pub fn accepts(target: &str, name: &str, bytes: &[u8]) -> Result<(), fixtures::E
             }
             let header = if rest.starts_with(b"DSCKPT01") {
                 40
-            } else {
+            } else if rest.starts_with(b"DSCKPT02") {
                 48
+            } else {
+                64
             };
             let n = rest.len().checked_sub(header + 4).ok_or("too short")? / 12;
             let fingerprint = u64::from_le_bytes(rest.get(8..16).ok_or("too short")?.try_into()?);
