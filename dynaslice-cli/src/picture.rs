@@ -184,14 +184,7 @@ fn run_3d(a: Args) -> Result<()> {
         })
         .collect::<Result<Vec<_>>>()?;
     progress.finish();
-    let panels: Vec<SurfacePanel> = times
-        .iter()
-        .zip(&meshes)
-        .map(|(&t, meshes)| SurfacePanel {
-            time: f64::from(t),
-            meshes: meshes.iter().enumerate().collect(),
-        })
-        .collect();
+    let panels = SurfacePanel::per_time(&times, &meshes);
     let options = RenderOptions {
         camera: a.view.camera(),
         panel: a.size,

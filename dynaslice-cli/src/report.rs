@@ -468,14 +468,7 @@ fn surfaces_section(
         .iter()
         .map(|&t| Ok(surfaces_at(&model, t, &channels, &options, |_| {})?.meshes))
         .collect::<Result<Vec<_>>>()?;
-    let panels: Vec<SurfacePanel> = times
-        .iter()
-        .zip(&meshes)
-        .map(|(&t, meshes)| SurfacePanel {
-            time: f64::from(t),
-            meshes: meshes.iter().enumerate().collect(),
-        })
-        .collect();
+    let panels = SurfacePanel::per_time(&times, &meshes);
     let png = figure("surfaces.png", &|p| {
         render3d::render_surfaces(p, &panels, &file.classes(), &RenderOptions::default())
     })?;

@@ -43,6 +43,21 @@ pub struct SurfacePanel<'a> {
     pub meshes: Vec<(usize, &'a Mesh)>,
 }
 
+impl<'a> SurfacePanel<'a> {
+    /// One panel per time, each with every class's mesh of that time (`meshes[i]` in class
+    /// order, as `dynaslice mesh` extracts them).
+    pub fn per_time(times: &[f32], meshes: &'a [Vec<Mesh>]) -> Vec<SurfacePanel<'a>> {
+        times
+            .iter()
+            .zip(meshes)
+            .map(|(&t, meshes)| SurfacePanel {
+                time: f64::from(t),
+                meshes: meshes.iter().enumerate().collect(),
+            })
+            .collect()
+    }
+}
+
 /// Where the scene is seen from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
