@@ -5,7 +5,7 @@ use super::console::{errln, out_bytes};
 use super::output::Plan;
 use anyhow::{Context, Result};
 use clap::CommandFactory;
-use dynaslice_data::atomic::write_atomically;
+use dynaslice_output::write_atomically;
 
 use std::path::PathBuf;
 

@@ -8,13 +8,14 @@ use super::options::{count, positive_f64, time_series, MAX_MESH_RESOLUTION, MAX_
 use super::output::{Kind, Plan};
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
-use dynaslice_data::atomic::write_via;
 use dynaslice_data::color_table::{table_paths, write_tables};
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
-use dynaslice_data::{manifest, palette, ClassInfo, TimeSeries};
+use dynaslice_data::{manifest, ClassInfo, TimeSeries};
 use dynaslice_mesh::io::{self as mesh_io, class_tag, Format, MeshInfo, Space};
 use dynaslice_metrics::itv::{itv_masks, itv_meshes};
 use dynaslice_metrics::motion::{round, Cycle, Frame, Motion, Units};
+use dynaslice_output::write_via;
+use dynaslice_sequence::palette;
 use dynaslice_volume::VoxelGrid;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};

@@ -4,15 +4,15 @@
 //! a hard link to an input are caught too), never the same path twice in one run, and never an
 //! existing file (a symlink, dangling or not, counts) unless `--force`: the main output, every
 //! file written beside it and every file of an output directory alike. Each output is claimed
-//! for the run ([`dynaslice_data::atomic::claim`]) before it is checked, so a second run on the
+//! for the run ([`dynaslice_output::claim`]) before it is checked, so a second run on the
 //! same output refuses at once and what is on disk always comes from one run; the claim also
-//! removes the temporaries of killed runs. Then [`dynaslice_data::atomic::write_via`] writes a
+//! removes the temporaries of killed runs. Then [`dynaslice_output::write_via`] writes a
 //! library's output under a temporary name and renames it into place, so a failed run leaves
 //! neither a partial file nor a damaged old one.
 
 use super::console::errln;
 use anyhow::{bail, Result};
-use dynaslice_data::atomic::{self, Claim};
+use dynaslice_output::Claim;
 use std::collections::HashSet;
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
@@ -161,9 +161,9 @@ impl Plan {
     /// killed runs' temporaries the claim removed.
     fn claim(&mut self, path: &Path) -> Result<()> {
         let stale = if self.in_directory(path) {
-            atomic::remove_stale_temporaries(path)?
+            dynaslice_output::remove_stale_temporaries(path)?
         } else {
-            let claim = atomic::claim(path)?;
+            let claim = dynaslice_output::claim(path)?;
             let stale = claim.stale_removed().to_vec();
             self.claims.push(claim);
             stale
@@ -282,9 +282,9 @@ fn parent_exists(option: &str, path: &Path) -> Result<()> {
 
 /// `path` as an input: it exists and is a regular file (a FIFO would block the open, a device
 /// like /dev/zero would never end), checked by the readers' own rule
-/// ([`dynaslice_data::input_file::regular_file`]). `what` names it in the message (e.g. "model").
+/// ([`dynaslice_sequence::input_file::regular_file`]). `what` names it in the message (e.g. "model").
 pub fn regular_file(what: &str, path: &Path) -> Result<()> {
-    match dynaslice_data::input_file::regular_file(path) {
+    match dynaslice_sequence::input_file::regular_file(path) {
         Ok(_) => Ok(()),
         Err(e) => bail!("cannot read {what} {}: {}", path.display(), e.kind),
     }

@@ -10,11 +10,11 @@ use super::output::{Kind, Plan};
 use super::progress::Progress;
 use super::times::{model_times, note};
 use anyhow::{bail, Context, Result};
-use dynaslice_data::atomic::write_via;
 use dynaslice_figures::picture::{match_classes, plane_labels, Panel};
 use dynaslice_figures::render3d::{self, Camera, RenderOptions, SurfacePanel};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_mesh::Options;
+use dynaslice_output::write_via;
 use std::path::PathBuf;
 
 /// Extra times one picture shows at most (each is a panel of the picture).

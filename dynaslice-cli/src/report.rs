@@ -10,11 +10,11 @@ use super::options::{count, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
 use super::output::{Kind, Plan};
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
-use dynaslice_data::atomic::write_via;
 use dynaslice_data::TimeSeries;
 use dynaslice_figures::plot::{class_chart, line_chart, Series};
 use dynaslice_figures::render3d::{self, RenderOptions, SurfacePanel};
 use dynaslice_metrics::motion::{round, Units};
+use dynaslice_output::write_via;
 use dynaslice_report::{Block, Cell, Document, Section, Table};
 use std::path::{Path, PathBuf};
 

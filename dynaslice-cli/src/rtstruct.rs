@@ -9,7 +9,6 @@ use super::options::{count, positive_f64, positive_f64_to, time_series, MAX_THRE
 use super::output::{regular_file, Plan};
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::Model;
-use dynaslice_data::geometry::Polygon;
 use dynaslice_data::nifti::read_geometry;
 use dynaslice_data::rtstruct::image_series::{self, CtSeries};
 use dynaslice_data::rtstruct::write::{
@@ -18,6 +17,7 @@ use dynaslice_data::rtstruct::write::{
 };
 use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::{manifest, FrameRange, Plane, Rect, TimeSeries};
+use dynaslice_geometry::Polygon;
 use dynaslice_mesh::planar::{contour_plane, PlanarOptions, PlaneField, Union, EVERYWHERE};
 use dynaslice_mesh::{LevelSets, Surfaces};
 use std::path::{Path, PathBuf};
@@ -200,7 +200,7 @@ pub fn run(a: Args) -> Result<()> {
             set.rois.len()
         );
     }
-    dynaslice_data::atomic::write_atomically(&a.output.join(MANIFEST), manifest_text.as_bytes())?;
+    dynaslice_output::write_atomically(&a.output.join(MANIFEST), manifest_text.as_bytes())?;
     errln!(
         "wrote {} ({} phases) in {:.1} s; {} planes, step {} mm, tolerance {} mm",
         a.output.join(MANIFEST).display(),

@@ -8,7 +8,7 @@ use super::options::{
 use super::output::Plan;
 use super::progress::Progress;
 use anyhow::{bail, Context, Result};
-use dynaslice_data::synth::{write_benchmark, BenchmarkOptions, Shape};
+use dynaslice_synth::{write_benchmark, BenchmarkOptions, Shape};
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice synth`.

@@ -207,7 +207,7 @@ fn chamfer_distance_to_a_reference_mesh() {
 #[test]
 fn synthetic_chambers_at_their_first_frame() {
     let dir = tempfile::tempdir().unwrap();
-    let bytes = spheres::chambers_model(dynaslice_data::synth::shapes::chambers(0.0), 1.0);
+    let bytes = spheres::chambers_model(dynaslice_synth::shapes::chambers(0.0), 1.0);
     let model = write_model(&dir.path().join("chambers.dsm"), &bytes);
     let csv = dir.path().join("frames.csv");
     let table = common::succeeded(&dynaslice(&[

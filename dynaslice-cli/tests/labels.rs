@@ -5,8 +5,9 @@
 
 use dynaslice_core::format::ModelWriter;
 use dynaslice_core::{Model, ModelBytes};
-use dynaslice_data::nifti::{read_volume, write_volume, LabelVolume};
-use dynaslice_data::palette::palette;
+use dynaslice_data::label_volume::LabelVolume;
+use dynaslice_data::nifti::{read_volume, write_volume};
+use dynaslice_sequence::palette::palette;
 use dynaslice_test_support::fixtures::shared_data;
 use dynaslice_test_support::spheres::{self, Sphere};
 use std::path::Path;

@@ -132,7 +132,7 @@ fn measure_writes_mm_figures_csv_json_and_itv() {
     // The ITV of the growing tumour is its largest ball, as a mask and as a mesh.
     let mask = itv.join("class1_tumour.itv.nii.gz");
     let volume = read_volume(&mask).unwrap();
-    let voxel = dynaslice_data::nifti::det3(&volume.affine).abs();
+    let voxel = dynaslice_data::label_volume::det3(&volume.affine).abs();
     let inside = volume.labels.iter().filter(|&&l| l == 7).count() as f64 * voxel;
     let want = SPHERES[0].world_volume(2.0);
     assert!((inside - want).abs() < 0.03 * want, "{inside} vs {want}");

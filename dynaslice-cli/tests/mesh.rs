@@ -5,8 +5,8 @@
 //! against closed forms, and the command line's files and errors.
 
 use dynaslice_core::ModelBytes;
-use dynaslice_data::palette::class_color;
 use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
+use dynaslice_sequence::palette::class_color;
 use dynaslice_test_support::spheres::{self, Sphere, SPHERES_DOMAIN};
 use std::f64::consts::PI;
 use std::path::Path;

@@ -292,7 +292,7 @@ fn a_run_on_an_output_another_run_is_writing_refuses_and_leaves_nothing() {
         // The main output: the value after -o.
         let output = PathBuf::from(&argv[argv.iter().position(|a| a == "-o").unwrap() + 1]);
         // Another run's claim, held by this process as the other run would hold it.
-        let claim = dynaslice_data::atomic::claim(&output).unwrap();
+        let claim = dynaslice_output::claim(&output).unwrap();
         let before = snapshot(dir.path());
         let out = dynaslice(&argv);
         let err = String::from_utf8_lossy(&out.stderr);
@@ -375,7 +375,7 @@ fn temporaries_of_killed_runs_are_removed_and_live_ones_kept() {
     }
     // A live writer's temporary of another output in the same folder.
     let (_live, live) =
-        dynaslice_data::atomic::create_temporary(&dir.path().join("other.nii.gz")).unwrap();
+        dynaslice_output::create_temporary(&dir.path().join("other.nii.gz")).unwrap();
     let o = dynaslice(&[
         "labels".into(),
         model.to_string_lossy().into_owned(),

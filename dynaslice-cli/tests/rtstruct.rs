@@ -9,8 +9,8 @@ mod common;
 
 use common::{succeeded, train_command, write_sequence};
 use dynaslice_core::{Model, ModelBytes};
-use dynaslice_data::geometry::polygon::contains_even_odd;
 use dynaslice_data::rtstruct::{read, RoiExtent};
+use dynaslice_geometry::polygon::contains_even_odd;
 use dynaslice_test_support::fixtures::two_organ_model;
 use dynaslice_test_support::python::run_python;
 use std::path::Path;

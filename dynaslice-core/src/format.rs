@@ -13,8 +13,12 @@
 //! whose offsets disagree. Weights start 64-byte aligned, so a model embedded with a 64-byte
 //! aligned `include_bytes!` is read in place.
 
+pub use crate::class_record::{CLASS_RECORD_SIZE, MAX_NAME_LEN};
+pub use crate::layout::{MAX_CLASSES, MAX_SINE_LAYERS, MAX_WIDTH};
+
+use crate::class_record::ClassRecord;
 use crate::layout::Layout;
-use crate::model::{ClassInfo, Model, Weights};
+use crate::model::{Model, Weights};
 use crate::{crc32, Domain, Error};
 use bytemuck::{Pod, Zeroable};
 use half::f16;
@@ -25,16 +29,6 @@ pub const MAGIC: [u8; 8] = *b"DYNSLICE";
 pub const VERSION: u32 = 1;
 /// Size of [`Header`] in bytes.
 pub const HEADER_SIZE: usize = 256;
-/// Size of one class record in bytes.
-pub const CLASS_RECORD_SIZE: usize = 64;
-/// Longest class name, in bytes of UTF-8.
-pub const MAX_NAME_LEN: usize = 56;
-/// Most sine layers (the first layer and up to 7 hidden layers).
-pub const MAX_SINE_LAYERS: usize = 8;
-/// Widest sine layer.
-pub const MAX_WIDTH: usize = 512;
-/// Most classes (output channels).
-pub const MAX_CLASSES: usize = 64;
 /// Longest metadata section, in bytes.
 pub const MAX_METADATA: usize = 1 << 20;
 /// Alignment of the weight section, from the start of the file.
@@ -95,28 +89,6 @@ pub struct Header {
 
 const _: () = assert!(core::mem::size_of::<Header>() == HEADER_SIZE);
 
-/// One class record: `label: i32`, `name_len: u32`, `name: [u8; 56]` (zero-padded UTF-8).
-pub(crate) struct ClassRecord;
-
-impl ClassRecord {
-    /// Decodes and validates a 64-byte record of class `k` (1-based, for errors).
-    pub(crate) fn decode(raw: &[u8], k: u32) -> Result<ClassInfo<'_>, Error> {
-        let bad = Error::BadClassRecord { class: k };
-        if raw.len() != CLASS_RECORD_SIZE {
-            return Err(bad);
-        }
-        let word = |i: usize| [raw[i], raw[i + 1], raw[i + 2], raw[i + 3]];
-        let label = i32::from_le_bytes(word(0));
-        let len = u32::from_le_bytes(word(4)) as usize;
-        let field = &raw[8..];
-        if len > MAX_NAME_LEN || field[len..].iter().any(|&b| b != 0) {
-            return Err(bad);
-        }
-        let name = core::str::from_utf8(&field[..len]).map_err(|_| bad)?;
-        Ok(ClassInfo { name, label })
-    }
-}
-
 /// The largest file a valid model can be: every dimension at its limit (about 8.5 MB). Readers
 /// stop past it, so opening a huge file that is not a model fails fast instead of reading all of
 /// it.
@@ -157,6 +129,19 @@ fn sections(layout: &Layout, metadata_len: u64, elem: u64) -> Option<Sections> {
         weights_bytes,
         file_size,
     })
+}
+
+impl<'a> Model<'a> {
+    /// Validates `bytes` as a model file (see `docs/model-format.md`) and borrows its weights.
+    ///
+    /// Checks magic, version, every size with overflow-checked arithmetic, dimensions against
+    /// the limits in [`crate::format`], the CRC32 trailer, the domain, class records, metadata
+    /// and that every weight is finite. Never panics and never reads outside `bytes`. The bytes
+    /// must start at an address aligned to 4 (f32 weights) or 2 (f16), else
+    /// [`Error::Misaligned`].
+    pub fn from_bytes(bytes: &'a [u8]) -> Result<Model<'a>, Error> {
+        parse(bytes)
+    }
 }
 
 /// Validates a model file; see [`Model::from_bytes`].

@@ -9,8 +9,14 @@
 //! temporal frequencies of Eq. 2 are one contiguous row that evaluation clamps (Eq. 4).
 //! Storing Wᵀ makes one layer over a batch a plain row-major matrix product H·Wᵀ.
 
-use crate::format::{MAX_CLASSES, MAX_SINE_LAYERS, MAX_WIDTH};
 use crate::Error;
+
+/// Most sine layers (the first layer and up to 7 hidden layers).
+pub const MAX_SINE_LAYERS: usize = 8;
+/// Widest sine layer.
+pub const MAX_WIDTH: usize = 512;
+/// Most classes (output channels).
+pub const MAX_CLASSES: usize = 64;
 
 /// Inputs of the first layer: x, y, z, t.
 pub const INPUT_DIM: usize = 4;

@@ -35,6 +35,7 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+mod class_record;
 pub mod cpu;
 mod crc32;
 pub mod domain;
@@ -49,13 +50,14 @@ mod model;
 mod model_bytes;
 pub mod sine;
 
+pub use class_record::ClassInfo;
 pub use crc32::crc32;
 pub use domain::Domain;
 pub use error::Error;
 pub use eval::Scratch;
 pub use label::{argmin_label, UNDEFINED_LABEL};
 pub use layout::Layout;
-pub use model::{ClassInfo, Model, Weights};
+pub use model::{Model, Weights};
 #[cfg(feature = "std")]
 pub use model_bytes::ModelBytes;
 

@@ -1,6 +1,6 @@
 //! A loaded model: validated dimensions, world domain and zero-copy views of the weights.
 
-use crate::format::{ClassRecord, CLASS_RECORD_SIZE};
+use crate::class_record::{ClassInfo, ClassRecord, CLASS_RECORD_SIZE};
 use crate::{Domain, Error, Layout};
 use half::f16;
 
@@ -49,15 +49,6 @@ impl<'a> Weights<'a> {
     }
 }
 
-/// Name and source label value of one class.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ClassInfo<'a> {
-    /// Human-readable name (at most [`crate::format::MAX_NAME_LEN`] bytes of UTF-8).
-    pub name: &'a str,
-    /// The label value this class had in its source (e.g. the segmentation's label number).
-    pub label: i32,
-}
-
 /// A validated DynaSlice model borrowing its bytes (see [`Model::from_bytes`]).
 ///
 /// Immutable and `Sync`: any number of threads may query one model at once.
@@ -73,17 +64,6 @@ pub struct Model<'a> {
 }
 
 impl<'a> Model<'a> {
-    /// Validates `bytes` as a model file (see `docs/model-format.md`) and borrows its weights.
-    ///
-    /// Checks magic, version, every size with overflow-checked arithmetic, dimensions against
-    /// the limits in [`crate::format`], the CRC32 trailer, the domain, class records, metadata
-    /// and that every weight is finite. Never panics and never reads outside `bytes`. The bytes
-    /// must start at an address aligned to 4 (f32 weights) or 2 (f16), else
-    /// [`Error::Misaligned`].
-    pub fn from_bytes(bytes: &'a [u8]) -> Result<Model<'a>, Error> {
-        crate::format::parse(bytes)
-    }
-
     /// Network dimensions.
     pub fn layout(&self) -> &Layout {
         &self.layout

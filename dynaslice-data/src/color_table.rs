@@ -2,7 +2,7 @@
 //! class's name and colour: 3D Slicer's `.ctbl` and ITK-SNAP's label description file.
 //!
 //! Both list the background (label 0) and then the classes by increasing label; a class's
-//! colour is its own or the [`crate::palette::palette`] entry of its position.
+//! colour is its own or the [`dynaslice_sequence::palette::palette`] entry of its position.
 //!
 //! - **3D Slicer** (`NAME.ctbl`, what `vtkMRMLColorTableStorageNode` reads and writes): `#`
 //!   comment lines, then one `label name R G B A` line per entry, components 0–255. Slicer
@@ -17,14 +17,14 @@
 //!   warning.
 //!
 //! [`table_paths`] names the two files beside a volume; each is written under a temporary name
-//! and renamed ([`crate::atomic::write_atomically`]).
+//! and renamed ([`dynaslice_output::write_atomically`]).
 
 use std::path::{Path, PathBuf};
 
-use crate::atomic::write_atomically;
-use crate::error::{DataError, ErrorKind, Result};
-use crate::palette::class_color;
-use crate::sequence::ClassInfo;
+use dynaslice_output::write_atomically;
+use dynaslice_sequence::error::{DataError, ErrorKind, Result};
+use dynaslice_sequence::palette::class_color;
+use dynaslice_sequence::sequence::ClassInfo;
 
 /// Largest label a 3D Slicer colour table may hold (`vtkMRMLColorTableStorageNode`'s
 /// `MaximumColorID`).
@@ -163,7 +163,7 @@ pub fn write_tables(ctbl_path: &Path, label_path: &Path, classes: &[ClassInfo]) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::palette::palette;
+    use dynaslice_sequence::palette::palette;
 
     fn class(name: &str, label: i32, color: Option<[u8; 3]>) -> ClassInfo {
         ClassInfo {

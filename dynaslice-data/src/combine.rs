@@ -26,9 +26,9 @@
 
 use std::path::{Path, PathBuf};
 
-use super::error::{DataError, ErrorKind, Result};
-use super::input::InputKind;
-use super::sequence::{Annotation, ClassInfo, Frame, Sequence};
+use crate::input_kind::InputKind;
+use dynaslice_sequence::error::{DataError, ErrorKind, Result};
+use dynaslice_sequence::sequence::{Annotation, ClassInfo, Frame, Sequence};
 
 /// Times closer than this (relative to the larger magnitude, or absolute below 1) are one time.
 pub const TIME_TOLERANCE: f64 = 1e-6;
@@ -224,7 +224,7 @@ fn merge_class(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sequence::{Plane, Rect};
+    use dynaslice_sequence::sequence::{Plane, Rect};
     use Absence::{AsRead, Union};
 
     fn part(path: &str, sequence: Sequence, absence: Absence) -> Part {

@@ -52,14 +52,14 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use super::error::{excerpt, DataError, ErrorKind, Result};
-use super::input_file;
 use super::label_table::LabelTable;
 use super::reslice::{normalize, plane_axes};
-use super::sequence::{dot, Annotation, Frame, Plane, Rect, Sequence};
-use crate::geometry::polygon::contains;
-use crate::geometry::repair::{even_odd_rings, find_contacts};
-use crate::geometry::Polygon;
+use dynaslice_geometry::polygon::contains;
+use dynaslice_geometry::repair::{even_odd_rings, find_contacts};
+use dynaslice_geometry::Polygon;
+use dynaslice_sequence::error::{excerpt, DataError, ErrorKind, Result};
+use dynaslice_sequence::input_file;
+use dynaslice_sequence::sequence::{dot, Annotation, Frame, Plane, Rect, Sequence};
 
 /// One component line of a `.csl` plane.
 #[derive(Debug, Clone)]
@@ -626,7 +626,7 @@ fn to_plane(
 
 /// The polygons of one class on one plane, with rings that cross or touch (beyond pinches at a
 /// shared vertex, which [`Sequence::new`] separates) replaced by simple rings bounding the same
-/// region under the even-odd rule (see [`crate::geometry::repair`]). Rings the validator refuses
+/// region under the even-odd rule (see [`dynaslice_geometry::repair`]). Rings the validator refuses
 /// for other reasons (too few vertices, repeated vertices) are returned unchanged for it to
 /// report, and so are rings whose even-odd region is empty (or beyond the engine's range).
 fn even_odd_repair(

@@ -25,7 +25,7 @@
 //!
 //! # Contours
 //!
-//! Marching squares ([`crate::geometry::marching_squares`]) on each class's indicator over the
+//! Marching squares ([`dynaslice_geometry::marching_squares`]) on each class's indicator over the
 //! slice's pixels at level ½, i.e. the bilinear interpolation of the indicator, as
 //! [`crate::reslice`] does in 3D: contours pass through the midpoints between a class's pixels
 //! and the others, classes never overlap, and pixels touching only diagonally are separate
@@ -92,14 +92,14 @@ use std::str::FromStr;
 
 use rayon::prelude::*;
 
-use crate::error::{DataError, ErrorKind, Result};
 use crate::frame_range::FrameRange;
-use crate::geometry::marching_squares::contours;
-use crate::geometry::Polygon;
 use crate::label_table::LabelTable;
-use crate::nifti::LabelVolume;
+use crate::label_volume::LabelVolume;
 use crate::reslice::{normalize, orthogonal};
-use crate::sequence::{cross, dot, Annotation, Frame, Plane, Rect, Sequence};
+use dynaslice_geometry::marching_squares::contours;
+use dynaslice_geometry::Polygon;
+use dynaslice_sequence::error::{DataError, ErrorKind, Result};
+use dynaslice_sequence::sequence::{cross, dot, Annotation, Frame, Plane, Rect, Sequence};
 
 /// How a label map becomes planes. See the [module docs](self).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -3,14 +3,14 @@
 //! from those options to [`InputOptions`], so that the front ends cannot drift.
 
 use crate::drawn_slices::{PlaneMode, SparseAxes};
-use crate::error::Result;
 use crate::frame_range::FrameRange;
 use crate::input::{self, InputOptions};
 use crate::label_table::LabelTable;
 use crate::reslice::ResliceOptions;
 use crate::rtstruct::RoiExtent;
-use crate::sequence::Sequence;
-use crate::space::{Space, Units};
+use dynaslice_sequence::error::Result;
+use dynaslice_sequence::sequence::Sequence;
+use dynaslice_sequence::space::{Space, Units};
 use std::path::PathBuf;
 
 /// The input options of `dynaslice train` and `dynaslice.train`, by the same names.

@@ -20,9 +20,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::error::{excerpt, DataError, ErrorKind, Result};
-use super::input_file;
-use super::sequence::ClassInfo;
+use dynaslice_sequence::error::{excerpt, DataError, ErrorKind, Result};
+use dynaslice_sequence::input_file;
+use dynaslice_sequence::sequence::ClassInfo;
 
 /// Bytes a label table file may hold: far more than any label set needs.
 pub const MAX_BYTES: u64 = 16 << 20;

@@ -1,18 +1,18 @@
-//! DynaSlice's input side: the sequence of annotated cross-sections ([`Sequence`]), its readers
-//! and writers, the 2D geometry of contours, frame selections and time series, and the synthetic
-//! 4D benchmark.
+//! DynaSlice's input side: the readers and writers of the file formats users bring, which turn
+//! them into a [`Sequence`] of annotated cross-sections (`dynaslice-sequence`, whose types are
+//! re-exported here as every reader returns them), and the policy that turns label maps into
+//! planes (reslicing, drawn-slice detection, combining several inputs).
 //!
 //! | source | entry point |
 //! | --- | --- |
-//! | native JSON (`docs/data-format.md`) | [`native::read`], [`native::write`] |
+//! | native JSON (`docs/data-format.md`) | `dynaslice_sequence::native`, read through [`input::read`] |
 //! | any input, one or several, by file name | [`input::read`] |
-//! | opening any input file: regular files only, reads capped by the format | [`input_file`] |
 //! | `.csl` file | [`csl::read`] |
 //! | `.seq` manifest | [`manifest::read`], read through [`input::read`] |
 //! | NIfTI label volume, resliced | [`nifti::read`] with [`reslice::ResliceOptions`] |
 //! | label names and colours (text, NIfTI XML, Slicer `.ctbl`, ITK-SNAP) | [`LabelTable`] |
 //! | DICOM RT Structure Set (RTSTRUCT) | [`rtstruct::read`] |
-//! | the synthetic benchmark | [`synth::slice_sequence`], [`synth::write_benchmark`] |
+//! | a label map's planes: reslicing, drawn slices, several inputs in one | [`reslice`], [`drawn_slices`], [`combine`] |
 //!
 //! Every reader returns a validated [`Sequence`] or a [`DataError`] that names the file, line,
 //! timestep, plane, class and what is wrong. Nothing panics on input and nothing is dropped
@@ -20,35 +20,29 @@
 
 #![warn(missing_docs)]
 
-pub mod atomic;
 pub mod color_table;
 pub mod combine;
 pub mod csl;
 pub mod drawn_slices;
-pub mod error;
 pub mod frame_range;
-pub mod geometry;
 pub mod input;
-pub mod input_file;
+pub mod input_kind;
 pub mod input_spec;
 pub mod label_table;
+pub mod label_volume;
 pub mod manifest;
-pub mod native;
 pub mod nifti;
 pub mod nifti_stream;
 pub mod nrrd;
-pub mod palette;
 pub mod reslice;
 pub mod rtstruct;
-pub mod sequence;
-pub mod space;
-pub mod synth;
 pub mod time_series;
 pub mod voxel_type;
 
-pub use error::{DataError, ErrorKind, Location, Result};
+pub use dynaslice_sequence::{
+    Aabb, Annotation, ClassInfo, DataError, ErrorKind, Frame, Location, Plane, Rect, Result,
+    Sequence, Space, Units,
+};
 pub use frame_range::FrameRange;
 pub use label_table::LabelTable;
-pub use sequence::{Aabb, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
-pub use space::{Space, Units};
 pub use time_series::TimeSeries;

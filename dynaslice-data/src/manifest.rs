@@ -15,8 +15,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::error::{excerpt, DataError, ErrorKind, Result};
-use super::input_file;
+use dynaslice_sequence::error::{excerpt, DataError, ErrorKind, Result};
+use dynaslice_sequence::input_file;
 
 /// Lines a manifest may hold: far beyond any real cohort, and a bound on what a hostile file
 /// can make us open.

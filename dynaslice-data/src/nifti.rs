@@ -11,61 +11,14 @@ use std::path::Path;
 
 use nifti::{Endianness, NiftiHeader, NiftiType};
 
-use super::error::{DataError, ErrorKind, Result};
-use super::input_file;
 use super::label_table::LabelTable;
-use super::nifti_stream::{NiftiStream, VolumeHeader};
+use super::label_volume::{det3, Geometry, LabelVolume};
+use super::nifti_stream::{NiftiStream, VolumeHeader, HEADER_SIZE};
 use super::reslice::{reslice, ResliceOptions};
-use super::sequence::Sequence;
 use super::voxel_type::VoxelType;
-
-/// A label volume: `frames` frames of `dims` voxels, voxel (i, j, k) of frame f at
-/// `labels[i + nx·(j + ny·(k + nz·f))]`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LabelVolume {
-    /// Voxels per axis (x, y, z).
-    pub dims: [usize; 3],
-    /// Number of frames (1 for a 3D file).
-    pub frames: usize,
-    /// Voxel index → world: `world = affine[r][0..3] · (i, j, k) + affine[r][3]` for row r.
-    pub affine: [[f64; 4]; 3],
-    /// Time between frames (`pixdim[4]`, 0 read as 1).
-    pub frame_interval: f64,
-    /// Label values, x fastest.
-    pub labels: Vec<i32>,
-}
-
-impl LabelVolume {
-    /// The label at voxel (i, j, k) of frame `f`; 0 (background) outside the volume.
-    #[inline]
-    pub fn label(&self, i: isize, j: isize, k: isize, f: usize) -> i32 {
-        let [nx, ny, nz] = self.dims;
-        if i < 0 || j < 0 || k < 0 || i as usize >= nx || j as usize >= ny || k as usize >= nz {
-            return 0;
-        }
-        self.labels[i as usize + nx * (j as usize + ny * (k as usize + nz * f))]
-    }
-
-    /// World position of voxel coordinates `q` (continuous, voxel centres at integers).
-    pub fn to_world(&self, q: [f64; 3]) -> [f64; 3] {
-        self.affine
-            .map(|r| r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + r[3])
-    }
-
-    /// The volume's grid, as [`read_geometry`] reads it from a file's header.
-    pub fn geometry(&self) -> Geometry {
-        Geometry {
-            dims: self.dims,
-            frames: self.frames,
-            affine: self.affine,
-            frame_interval: self.frame_interval,
-        }
-    }
-}
-
-/// Bytes of a NIfTI-1 header (read here, written by [`crate::nifti_stream`]); the voxel data
-/// starts at `vox_offset`, at least 4 bytes later (the extender).
-pub(crate) const HEADER_SIZE: usize = 348;
+use dynaslice_sequence::error::{DataError, ErrorKind, Result};
+use dynaslice_sequence::input_file;
+use dynaslice_sequence::sequence::Sequence;
 
 /// Deflate's largest expansion (one 258-byte match per two bits): a `.nii.gz` of n bytes cannot
 /// hold more than this × n bytes of NIfTI.
@@ -228,19 +181,6 @@ fn extension_table(path: &Path, bytes: &[u8], big_endian: bool) -> LabelTable {
         pos = end;
     }
     table
-}
-
-/// A NIfTI file's grid: what [`read_geometry`] reads from the header alone.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Geometry {
-    /// Voxels per axis (x, y, z).
-    pub dims: [usize; 3],
-    /// Number of frames (1 for a 3D file).
-    pub frames: usize,
-    /// Voxel index → world, as [`LabelVolume::affine`].
-    pub affine: [[f64; 4]; 3],
-    /// Time between frames (`pixdim[4]`, 0 read as 1).
-    pub frame_interval: f64,
 }
 
 /// Reads the grid of the NIfTI-1 file at `path` from its 348-byte header only (decompressing
@@ -502,13 +442,6 @@ fn affine(h: &NiftiHeader) -> std::result::Result<[[f64; 4]; 3], ErrorKind> {
         )));
     }
     Ok(a)
-}
-
-/// Determinant of an affine's 3×3 linear part (the voxel volume, up to sign).
-pub fn det3(a: &[[f64; 4]; 3]) -> f64 {
-    a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
-        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
-        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
 }
 
 fn check_scaling(h: &NiftiHeader) -> std::result::Result<(), ErrorKind> {

@@ -1,7 +1,7 @@
 //! A NIfTI-1 label-volume writer that streams: the header first, then each frame's voxels as
 //! they are computed, through gzip for `.gz` names. Memory is one frame's encoding buffer,
 //! whatever the number of frames. The only NIfTI writer: [`crate::nifti::write_volume`] writes a
-//! whole [`crate::nifti::LabelVolume`] through it.
+//! whole [`crate::label_volume::LabelVolume`] through it.
 //!
 //! The header is written field by field at the offsets of the NIfTI-1 standard (`nifti1.h`):
 //! the `nifti` crate only serialises headers inside its whole-array writer.
@@ -17,10 +17,9 @@
 //! The file is written beside its destination under a temporary name and renamed when the last
 //! frame is in, so an interrupted run never leaves a truncated volume under the real name.
 
-use crate::atomic::{create_temporary, persist};
-use crate::nifti::HEADER_SIZE;
 use crate::voxel_type::VoxelType;
 use anyhow::{bail, ensure, Context, Result};
+use dynaslice_output::{create_temporary, persist};
 use flate2::write::GzEncoder;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -28,6 +27,10 @@ use std::path::{Path, PathBuf};
 use tempfile::TempPath;
 
 /// Voxel data offset: the header and the 4-byte extension flag (no extensions).
+/// Bytes of a NIfTI-1 header (written here, read by [`crate::nifti`]); the voxel data
+/// starts at `vox_offset`, at least 4 bytes later (the extender).
+pub(crate) const HEADER_SIZE: usize = 348;
+
 const VOX_OFFSET: usize = HEADER_SIZE + 4;
 /// `NIFTI_INTENT_LABEL`: voxel values are label indices.
 const INTENT_LABEL: i16 = 1002;
@@ -60,7 +63,7 @@ pub struct VolumeHeader {
     pub dims: [usize; 3],
     /// Frames (1 writes a 3D volume).
     pub frames: usize,
-    /// Voxel index → world, as in [`crate::nifti::LabelVolume::affine`].
+    /// Voxel index → world, as in [`crate::label_volume::LabelVolume::affine`].
     pub affine: [[f64; 4]; 3],
     /// Time between frames (`pixdim[4]`).
     pub frame_interval: f64,
@@ -357,7 +360,8 @@ fn quaternion(a: &[[f64; 4]; 3], spacing: [f64; 3]) -> Option<Quaternion> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::nifti::{read_volume, LabelVolume};
+    use crate::label_volume::LabelVolume;
+    use crate::nifti::read_volume;
 
     fn header(affine: [[f64; 4]; 3], frames: usize, range: (i32, i32)) -> VolumeHeader {
         VolumeHeader {

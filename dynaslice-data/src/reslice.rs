@@ -12,11 +12,13 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use rayon::prelude::*;
 
-use super::error::{ErrorKind, Result};
 use super::label_table::LabelTable;
-use super::nifti::{det3, LabelVolume};
-use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
-use crate::geometry::marching_squares::contours;
+use super::label_volume::{det3, LabelVolume};
+use dynaslice_geometry::marching_squares::contours;
+use dynaslice_sequence::error::{ErrorKind, Result};
+use dynaslice_sequence::sequence::{
+    cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence,
+};
 
 pub use crate::frame_range::FrameRange;
 

@@ -87,11 +87,13 @@ use std::path::Path;
 use dicom_dictionary_std::tags;
 use dicom_object::{InMemDicomObject, Tag};
 
-use super::error::{DataError, ErrorKind, Result};
-use super::input_file;
 use super::reslice::{normalize, plane_axes};
-use super::sequence::{cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
-use crate::geometry::{Point2, Polygon};
+use dynaslice_geometry::{Point2, Polygon};
+use dynaslice_sequence::error::{DataError, ErrorKind, Result};
+use dynaslice_sequence::input_file;
+use dynaslice_sequence::sequence::{
+    cross, dot, Annotation, ClassInfo, Frame, Plane, Rect, Sequence,
+};
 
 mod bounded;
 pub mod image_series;

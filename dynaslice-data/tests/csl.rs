@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
-use dynaslice_data::geometry::polygon::signed_area;
 use dynaslice_data::input::{self, InputOptions};
 use dynaslice_data::{csl, ErrorKind, LabelTable};
+use dynaslice_geometry::polygon::signed_area;
 use dynaslice_test_support::fixtures::{
     csl_file, shared_data, SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE,
 };

@@ -9,9 +9,10 @@ use dynaslice_data::drawn_slices::{
     drawn_slices, resolve, slices, sparse, sparse_with_axes, PlaneMode, SparseAxes, VoxelSlice,
     MAX_ANNOTATIONS,
 };
-use dynaslice_data::geometry::polygon::signed_area;
-use dynaslice_data::nifti::{read_volume, LabelVolume};
+use dynaslice_data::label_volume::LabelVolume;
+use dynaslice_data::nifti::read_volume;
 use dynaslice_data::{ErrorKind, FrameRange, LabelTable, Plane, Sequence};
+use dynaslice_geometry::polygon::signed_area;
 use dynaslice_test_support::fixtures::shared_data;
 use dynaslice_test_support::python::run_python;
 

@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use dynaslice_data::input::{read, InputOptions};
-use dynaslice_data::nifti::{write_volume, LabelVolume};
+use dynaslice_data::label_volume::LabelVolume;
+use dynaslice_data::nifti::write_volume;
 use dynaslice_data::LabelTable;
 use dynaslice_test_support::fixtures::write_sequence;
 

@@ -10,7 +10,8 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use dynaslice_data::input::{read, InputOptions};
-use dynaslice_data::nifti::{read_geometry, read_volume, write_volume, LabelVolume};
+use dynaslice_data::label_volume::LabelVolume;
+use dynaslice_data::nifti::{read_geometry, read_volume, write_volume};
 use dynaslice_data::{DataError, LabelTable};
 
 /// Runs `f` on another thread: a reader that blocks fails the test instead of hanging it.

@@ -2,7 +2,8 @@
 
 use std::path::Path;
 
-use dynaslice_data::{native, ErrorKind, Sequence};
+use dynaslice_data::{ErrorKind, Sequence};
+use dynaslice_sequence::native;
 
 mod common;
 

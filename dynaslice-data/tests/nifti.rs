@@ -3,10 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-use dynaslice_data::geometry::polygon::signed_area;
-use dynaslice_data::nifti::{read, read_volume, write_volume, LabelVolume};
+use dynaslice_data::label_volume::LabelVolume;
+use dynaslice_data::nifti::{read, read_volume, write_volume};
 use dynaslice_data::reslice::{reslice, ResliceOptions};
 use dynaslice_data::{ErrorKind, LabelTable};
+use dynaslice_geometry::polygon::signed_area;
 use dynaslice_test_support::fixtures::shared_data;
 use dynaslice_test_support::python::run_python;
 use nifti::NiftiHeader;

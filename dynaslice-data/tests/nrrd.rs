@@ -7,9 +7,10 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, Once};
 
-use dynaslice_data::nifti::LabelVolume;
-use dynaslice_data::nrrd::{palette, read_volume, write_segmentation, SegmentationHeader};
+use dynaslice_data::label_volume::LabelVolume;
+use dynaslice_data::nrrd::{read_volume, write_segmentation, SegmentationHeader};
 use dynaslice_data::{ClassInfo, ErrorKind};
+use dynaslice_sequence::palette::palette;
 use dynaslice_test_support::fixtures::shared_data;
 use dynaslice_test_support::python::run_python;
 use serde_json::Value;

@@ -20,9 +20,11 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use dynaslice_data::nifti::{self, LabelVolume};
+use dynaslice_data::label_volume::LabelVolume;
+use dynaslice_data::nifti;
 use dynaslice_data::reslice::ResliceOptions;
-use dynaslice_data::{csl, native, DataError, ErrorKind, LabelTable, Result, Sequence};
+use dynaslice_data::{csl, DataError, ErrorKind, LabelTable, Result, Sequence};
+use dynaslice_sequence::native;
 use dynaslice_test_support::fixtures::{csl_file, SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;

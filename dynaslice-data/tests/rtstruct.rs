@@ -6,9 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, Once};
 
-use dynaslice_data::geometry::polygon::signed_area;
 use dynaslice_data::rtstruct::{read, RoiExtent, MAX_FILE_BYTES};
 use dynaslice_data::{ErrorKind, Plane, Sequence};
+use dynaslice_geometry::polygon::signed_area;
 use dynaslice_test_support::fixtures::shared_data;
 use dynaslice_test_support::python::run_python;
 use serde_json::{json, Value};

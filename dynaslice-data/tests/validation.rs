@@ -1,7 +1,7 @@
 //! Sequence validation: one test per kind of malformed input, the pinch repair, canonical form.
 
-use dynaslice_data::geometry::polygon::signed_area;
 use dynaslice_data::{Annotation, ClassInfo, DataError, ErrorKind, Frame, Plane, Rect, Sequence};
+use dynaslice_geometry::polygon::signed_area;
 
 fn square(x: f64, y: f64, s: f64) -> Vec<[f64; 2]> {
     vec![[x, y], [x + s, y], [x + s, y + s], [x, y + s]]

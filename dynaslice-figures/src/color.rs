@@ -6,9 +6,9 @@ use plotters::style::RGBColor;
 /// The colour of class `index` (0-based, the order of the sequence's or model's classes):
 /// `given` (the input's display colour, e.g. from a `.seg.nrrd`, an RTSTRUCT or a model file's
 /// `class_colors`) when known, else the one palette's entry `index`
-/// ([`dynaslice_data::palette`], shared with the segmentation writers and colour tables).
+/// ([`dynaslice_sequence::palette`], shared with the segmentation writers and colour tables).
 pub fn class_color(index: usize, given: Option<[u8; 3]>) -> RGBColor {
-    let [r, g, b] = dynaslice_data::palette::class_color(index, given);
+    let [r, g, b] = dynaslice_sequence::palette::class_color(index, given);
     RGBColor(r, g, b)
 }
 
@@ -25,7 +25,7 @@ mod tests {
     #[test]
     fn given_colours_win_and_the_palette_is_the_shared_one() {
         assert_eq!(class_color(3, Some([1, 2, 3])), RGBColor(1, 2, 3));
-        let [r, g, b] = dynaslice_data::palette::PALETTE[0];
+        let [r, g, b] = dynaslice_sequence::palette::PALETTE[0];
         assert_eq!(class_color(0, None), RGBColor(r, g, b));
         // 64 classes (a model's most): no two the same, none too close to the white background.
         let colours: Vec<RGBColor> = (0..64).map(|i| class_color(i, None)).collect();

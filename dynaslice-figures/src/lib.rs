@@ -40,5 +40,5 @@ pub(crate) fn save_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Resu
     image::codecs::png::PngEncoder::new(&mut bytes)
         .write_image(rgb, width, height, image::ColorType::Rgb8)
         .map_err(|e| anyhow!("cannot encode {}: {e}", path.display()))?;
-    dynaslice_data::atomic::write_atomically(path, &bytes)
+    dynaslice_output::write_atomically(path, &bytes)
 }

@@ -15,7 +15,7 @@ use crate::color::{class_color, lighten};
 use crate::legend::{self, Item};
 use anyhow::{anyhow, Result};
 use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
-use dynaslice_data::{ClassInfo, Plane};
+use dynaslice_sequence::{ClassInfo, Plane};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -386,7 +386,7 @@ pub fn plane_labels(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dynaslice_data::Rect;
+    use dynaslice_sequence::Rect;
 
     fn plane(origin: [f64; 3], u: [f64; 3], v: [f64; 3]) -> Plane {
         Plane {

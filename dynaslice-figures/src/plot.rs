@@ -80,7 +80,7 @@ pub fn loss_curve(path: &Path, names: &[&str], rows: &[(u64, &[f64])]) -> Result
                 .collect(),
         })
         .collect();
-    dynaslice_data::atomic::write_via(path, |tmp| {
+    dynaslice_output::write_via(path, |tmp| {
         line_chart(
             tmp,
             "DynaSlice training loss",

@@ -12,8 +12,8 @@
 use crate::color::class_color;
 use crate::legend::{self, Item};
 use anyhow::{anyhow, ensure, Result};
-use dynaslice_data::ClassInfo;
 use dynaslice_mesh::Mesh;
+use dynaslice_sequence::ClassInfo;
 use plotters::prelude::*;
 use std::path::Path;
 

@@ -3,11 +3,11 @@
 //! that hold every class of a 41-class input, and the written PNGs' sizes.
 
 use dynaslice_core::Model;
-use dynaslice_data::{Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 use dynaslice_figures::class_color;
 use dynaslice_figures::picture::{match_classes, plane_labels, Panel};
 use dynaslice_figures::render3d::{render_surfaces, RenderOptions, SurfacePanel};
 use dynaslice_mesh::{extract, Options};
+use dynaslice_sequence::{Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 use dynaslice_test_support::spheres::{self, Sphere};
 use plotters::style::RGBColor;
 

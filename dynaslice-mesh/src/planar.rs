@@ -7,7 +7,7 @@
 //!    [`PlanarOptions::step`]) and clipped to the rectangle, F = max(F, d_rect), so that a
 //!    region reaching the rectangle's edge is closed along it (a region covering a corner of the
 //!    rectangle has that corner cut by half a grid cell).
-//! 2. Marching squares ([`dynaslice_data::geometry::marching_squares`]) gives closed, nested,
+//! 2. Marching squares ([`dynaslice_geometry::marching_squares`]) gives closed, nested,
 //!    non-crossing contours: outer boundaries counter-clockwise, holes clockwise.
 //! 3. Every vertex lies on a grid edge whose ends have opposite signs; bisection on that edge
 //!    places it on F = 0 to [`BISECTIONS`] halvings (a 1 mm edge: 6e-8 mm, below the f32
@@ -21,10 +21,10 @@
 //! radius R and vertex spacing h (≤ the grid step) the chord is within h²/(8R) of it (0.0125 mm
 //! for h = 1 mm, R = 10 mm).
 
-use dynaslice_data::geometry::marching_squares;
-use dynaslice_data::geometry::polygon::find_crossing;
-use dynaslice_data::geometry::{Point2, Polygon};
-use dynaslice_data::Plane;
+use dynaslice_geometry::marching_squares;
+use dynaslice_geometry::polygon::find_crossing;
+use dynaslice_geometry::{Point2, Polygon};
+use dynaslice_sequence::Plane;
 
 use crate::field::{LevelSets, Source};
 
@@ -343,8 +343,8 @@ mod tests {
     use super::*;
     use crate::analytic::{Analytic, Shape};
     use crate::field::Surfaces;
-    use dynaslice_data::geometry::polygon::signed_area;
-    use dynaslice_data::Rect;
+    use dynaslice_geometry::polygon::signed_area;
+    use dynaslice_sequence::Rect;
 
     fn axial(z: f64, half: f64) -> Plane {
         Plane {

@@ -10,8 +10,8 @@ use super::iou::label_overlap;
 use super::FrameTable;
 use anyhow::{bail, Result};
 use dynaslice_core::Model;
-use dynaslice_data::synth::{BenchmarkOptions, Shape};
 use dynaslice_mesh::{self as mesh, Surfaces};
+use dynaslice_synth::{BenchmarkOptions, Shape};
 use std::fmt::Write as _;
 
 /// The benchmark's reference box is the domain [−1, 1]³ at every frame: CD is normalised by its
@@ -236,7 +236,7 @@ mod tests {
             samples: 4000,
         };
         let truth = Truth::new(Shape::Chambers, &[0], r).unwrap();
-        let exact = chambers_model(dynaslice_data::synth::shapes::chambers(0.0), 1.0);
+        let exact = chambers_model(dynaslice_synth::shapes::chambers(0.0), 1.0);
         let scores = truth.score(&Model::from_bytes(&exact).unwrap()).unwrap();
         for c in 0..3 {
             let (iou, cd) = (
@@ -246,7 +246,7 @@ mod tests {
             assert!(iou > 0.95, "class {c}: IoU {iou}");
             assert!(cd < 0.5, "class {c}: CD×10⁴ {cd}");
         }
-        let small = chambers_model(dynaslice_data::synth::shapes::chambers(0.0), 0.7);
+        let small = chambers_model(dynaslice_synth::shapes::chambers(0.0), 0.7);
         let worse = truth.score(&Model::from_bytes(&small).unwrap()).unwrap();
         for c in 0..3 {
             let iou = worse.iou.values[0][c].unwrap();

@@ -19,8 +19,8 @@
 
 use anyhow::Result;
 use dynaslice_core::Model;
-use dynaslice_data::synth::Shape;
 use dynaslice_mesh::{self as mesh, Mesh, PointField, Surfaces};
+use dynaslice_synth::Shape;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
 /// Default samples per surface (the paper's protocol uses at least 30k).
@@ -247,7 +247,7 @@ mod tests {
     fn truth_meshes_of_the_chambers_are_the_spheres() {
         let t = 0.3;
         let meshes = truth_meshes(Shape::Chambers, t, 96).unwrap();
-        let (_, radii) = dynaslice_data::synth::shapes::chambers(t);
+        let (_, radii) = dynaslice_synth::shapes::chambers(t);
         assert_eq!(meshes.len(), 3);
         for (m, r) in meshes.iter().zip(radii) {
             assert!(m.topology().is_closed_manifold(), "{:?}", m.topology());

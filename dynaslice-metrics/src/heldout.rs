@@ -12,7 +12,7 @@
 //!
 //! On a plane, both label maps are rasterised on its region of interest at pixel centres: the
 //! ground truth by the inside test of the class's polygons (sign of the exact polygon distance,
-//! [`dynaslice_data::geometry::PolygonSdf`], holes respected), the prediction by the model at the pixel's
+//! [`dynaslice_geometry::PolygonSdf`], holes respected), the prediction by the model at the pixel's
 //! world position and the frame's time. Classes a plane does not annotate are not scored there.
 //! Intersections and unions are summed over all planes of a category, then divided per class.
 
@@ -20,8 +20,8 @@ use super::iou::Overlap;
 use anyhow::{bail, ensure, Result};
 use dynaslice_core::{Model, Scratch};
 use dynaslice_data::frame_range::FrameRange;
-use dynaslice_data::geometry::PolygonSdf;
 use dynaslice_data::{Plane, Sequence};
+use dynaslice_geometry::PolygonSdf;
 use rayon::prelude::*;
 
 /// Default pixels along the longer side of a plane's region of interest.

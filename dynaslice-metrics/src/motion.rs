@@ -234,7 +234,7 @@ fn csv_field(s: &str) -> String {
 mod tests {
     use super::*;
     use dynaslice_core::Domain;
-    use dynaslice_data::synth::shapes::chambers;
+    use dynaslice_synth::shapes::chambers;
     use dynaslice_test_support::spheres::{self, Sphere};
     use std::f64::consts::PI;
 

@@ -2,8 +2,8 @@
 //! every output (meshes, segmentations, colour tables, pictures).
 
 use dynaslice_core::Model;
-use dynaslice_data::palette::{parse_hex, to_hex};
-use dynaslice_data::ClassInfo;
+use dynaslice_sequence::palette::{parse_hex, to_hex};
+use dynaslice_sequence::ClassInfo;
 
 /// The metadata key of the input's class colours ([`class_colors_line`]).
 pub const CLASS_COLORS_KEY: &str = "class_colors";
@@ -51,7 +51,7 @@ pub fn parse_class_colors(metadata: &str) -> Result<Vec<(i32, [u8; 3])>, String>
 /// The colour `model`'s metadata records for each of its channels ([`parse_class_colors`],
 /// matched by label), `None` for a channel it records none for: the training input's colours.
 /// Outputs show a channel without one in the palette's colour for it
-/// ([`dynaslice_data::palette::class_color`]). An error says what is malformed.
+/// ([`dynaslice_sequence::palette::class_color`]). An error says what is malformed.
 pub fn recorded_class_colors(model: &Model) -> Result<Vec<Option<[u8; 3]>>, String> {
     let recorded = parse_class_colors(model.metadata())?;
     Ok(model

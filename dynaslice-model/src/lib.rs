@@ -3,7 +3,7 @@
 //! cannot disagree.
 //!
 //! - [`ModelFile`]: open and validate a model file (regular files only, size bounded), its
-//!   classes with names and the input's colours, its input's frame ([`dynaslice_data::Space`])
+//!   classes with names and the input's colours, its input's frame ([`dynaslice_sequence::Space`])
 //!   and units, whether it is static, and the one time rule
 //!   ([`dynaslice_core::Domain::contains_time`]: a time outside the range is an error).
 //! - [`resolve_classes`]: class keys (numbers or names) to channels.

@@ -4,7 +4,7 @@
 use crate::class_colors::recorded_class_colors;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::{Model, ModelBytes};
-use dynaslice_data::{palette, ClassInfo, Space, Units};
+use dynaslice_sequence::{palette, ClassInfo, Space, Units};
 use std::path::{Path, PathBuf};
 
 /// A model file read from disk and validated.
@@ -20,7 +20,7 @@ impl ModelFile {
     /// largest model the format allows ([`ModelBytes::read`]).
     pub fn open(path: &Path) -> Result<ModelFile> {
         // The one rule of every reader: regular files only, checked before opening.
-        dynaslice_data::input_file::regular_file(path)
+        dynaslice_sequence::input_file::regular_file(path)
             .map_err(|e| anyhow!("cannot read model {}: {}", path.display(), e.kind))?;
         let bytes = ModelBytes::read(path)
             .with_context(|| format!("cannot read model {}", path.display()))?;

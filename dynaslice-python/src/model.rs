@@ -4,7 +4,7 @@ use crate::batch::{self, Answers, PointsArg, Query, TimesArg};
 use crate::{core_error, detach_result, pool, DynasliceError};
 use dynaslice_core::{Model, ModelBytes};
 use dynaslice_data::nifti::{read_geometry, read_volume};
-use dynaslice_data::palette;
+use dynaslice_sequence::palette;
 use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
 use dynaslice_model::{recorded_class_colors, resolve_classes};
 use dynaslice_volume::{label_indices, source_labels, write_model_labels, VoxelGrid};

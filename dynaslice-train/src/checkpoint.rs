@@ -11,9 +11,9 @@
 //! mid-write leaves the previous checkpoint intact.
 
 use super::adam::Adam;
-use super::trainer::SchedulePlan;
+use super::schedule_plan::SchedulePlan;
 use anyhow::{bail, Context, Result};
-use dynaslice_data::atomic::write_atomically;
+use dynaslice_output::write_atomically;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"DSCKPT03";

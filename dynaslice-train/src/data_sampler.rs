@@ -3,13 +3,12 @@
 
 use super::loss::{ContourSample, PlaneSample};
 use super::objective::Batch;
-use super::trainer::Sampler;
 use crate::sampling::{
-    sample_space_time, ContourBatch, PlaneBatch, PlaneSampling, PlaneTarget, SampleRng,
+    sample_space_time, ContourBatch, PlaneBatch, PlaneSampling, PlaneTarget, SampleRng, Sampler,
     SamplingIndex, SpaceTimeBatch,
 };
 use dynaslice_core::Domain;
-use dynaslice_data::{Aabb, Sequence};
+use dynaslice_sequence::{Aabb, Sequence};
 
 /// Relative margin around the data's bounding box inside the normalised cube, so surfaces near
 /// the outermost planes are not clipped by the domain.
@@ -180,7 +179,7 @@ impl DataSampler {
             counts.min_per_class,
         ]
         .iter()
-        .fold(dynaslice_data::native::digest(seq), |h, &c| {
+        .fold(dynaslice_sequence::native::digest(seq), |h, &c| {
             (h ^ c as u64).wrapping_mul(0x100_0000_01b3)
         });
         let index = SamplingIndex::new(seq);
@@ -317,7 +316,7 @@ impl Sampler for DataSampler {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
+    use dynaslice_synth::{slice_sequence, BenchmarkOptions, Shape};
 
     fn sampler() -> DataSampler {
         let bench = BenchmarkOptions {

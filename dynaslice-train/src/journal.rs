@@ -4,7 +4,7 @@
 
 use crate::loss::LossTerms;
 use anyhow::{Context, Result};
-use dynaslice_data::atomic::write_atomically;
+use dynaslice_output::write_atomically;
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};

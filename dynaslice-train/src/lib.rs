@@ -32,6 +32,7 @@ pub mod objective;
 pub mod passes;
 pub mod reverse_over_reverse;
 pub mod sampling;
+pub mod schedule_plan;
 mod simd;
 pub mod spec;
 pub mod temporal_bound;

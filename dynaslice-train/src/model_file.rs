@@ -5,8 +5,8 @@ use crate::data_sampler::SampleCounts;
 use crate::trainer::{Outcome, TrainOptions};
 use dynaslice_core::format::{MAX_CLASSES, MAX_NAME_LEN};
 use dynaslice_core::{Domain, Error, ModelBytes};
-use dynaslice_data::ClassInfo;
 use dynaslice_model::class_colors_line;
+use dynaslice_sequence::ClassInfo;
 
 /// Checks, before any training, that a model of `classes` in `domain` (from
 /// [`crate::data_sampler::domain_for`]) fits the model format: at most [`MAX_CLASSES`] classes,

@@ -394,6 +394,38 @@ impl TrainSpec {
     }
 }
 
+impl Default for TrainOptions {
+    /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
+    /// 3000 steps, ω₀ = 10, initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.2, α = 50, all threads,
+    /// no checkpoint; `omega_t_max` must be set from the data ([`crate::temporal_bound::temporal_bound`]).
+    fn default() -> Self {
+        TrainOptions {
+            widths: vec![256; 4],
+            steps: DEFAULT_STEPS,
+            time_limit: None,
+            omega_0: 10.0,
+            offset: 0.2,
+            seed: 0,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            lr: 1e-3,
+            lr_final: 1e-4,
+            warmup_steps: 0,
+            loss: LossWeights {
+                orientation: 0.1,
+                plane: 0.1,
+                // Measured (lab/notes/training.md): 0.05 let real data and the thin tube overfit
+                // between planes; 0.2 is better on both.
+                regulariser: 0.2,
+                alpha: 50.0,
+            },
+            omega_t_max: f32::INFINITY,
+            checkpoint: None,
+            checkpoint_every: Duration::from_secs_f64(DEFAULT_CHECKPOINT_MINUTES * 60.0),
+            resume: false,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,7 +9,7 @@
 //! frequencies.
 
 use dynaslice_core::Domain;
-use dynaslice_data::Sequence;
+use dynaslice_sequence::Sequence;
 
 /// Δt of Eq. 4: the median spacing of the annotated timesteps in normalised time (1 for a
 /// single timestep, where the network's time input is then switched off by ω_t^max = 0).
@@ -66,7 +66,7 @@ mod tests {
     use crate::data_sampler::domain_for;
     use crate::network::{Network, OMEGA_0};
     use crate::trainer::TrainOptions;
-    use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
+    use dynaslice_synth::{slice_sequence, BenchmarkOptions, Shape};
 
     /// The default c on the benchmark's sampling (10 of 37 frames annotated): at the trainer's
     /// default ω₀ the bound leaves the initial network exactly the unbounded one (a guard, so

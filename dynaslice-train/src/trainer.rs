@@ -9,22 +9,13 @@ use super::checkpoint::Checkpoint;
 use super::loss::{LossTerms, LossWeights};
 use super::network::Network;
 use super::objective::{Batch, Objective};
+use super::sampling::Sampler;
+use super::schedule_plan::{SchedulePlan, CALIBRATION_STEPS};
 use anyhow::{Context, Result};
 use dynaslice_core::Layout;
 use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
-
-/// A source of training samples in the network's normalised frame.
-pub trait Sampler {
-    /// Fills `batch` with the samples of step `step`: a pure function of (seed, step), so a
-    /// resumed run sees the same samples.
-    fn sample(&mut self, seed: u64, step: u64, batch: &mut Batch);
-    /// Upper bound on the samples in any one set of a batch (sizes the buffers).
-    fn max_set_len(&self) -> usize;
-    /// A digest of the data, stored in checkpoints.
-    fn fingerprint(&self) -> u64;
-}
 
 /// Options of one training run (recorded in the model's metadata).
 #[derive(Clone, Debug, PartialEq)]
@@ -71,40 +62,6 @@ pub struct TrainOptions {
     pub resume: bool,
 }
 
-impl Default for TrainOptions {
-    /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
-    /// 3000 steps, ω₀ = 10, initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.2, α = 50, all threads,
-    /// no checkpoint; `omega_t_max` must be set from the data ([`crate::temporal_bound::temporal_bound`]).
-    fn default() -> Self {
-        TrainOptions {
-            widths: vec![256; 4],
-            steps: crate::spec::DEFAULT_STEPS,
-            time_limit: None,
-            omega_0: 10.0,
-            offset: 0.2,
-            seed: 0,
-            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
-            lr: 1e-3,
-            lr_final: 1e-4,
-            warmup_steps: 0,
-            loss: LossWeights {
-                orientation: 0.1,
-                plane: 0.1,
-                // Measured (lab/notes/training.md): 0.05 let real data and the thin tube overfit
-                // between planes; 0.2 is better on both.
-                regulariser: 0.2,
-                alpha: 50.0,
-            },
-            omega_t_max: f32::INFINITY,
-            checkpoint: None,
-            checkpoint_every: Duration::from_secs_f64(
-                crate::spec::DEFAULT_CHECKPOINT_MINUTES * 60.0,
-            ),
-            resume: false,
-        }
-    }
-}
-
 impl TrainOptions {
     /// The options as `key = value` lines, for the model's metadata.
     pub fn describe(&self) -> String {
@@ -134,12 +91,6 @@ pub struct Progress {
     /// Seconds since this process started training.
     pub elapsed: f64,
 }
-
-/// Steps held at the initial learning rate (after any warm-up ramp) before the cosine starts.
-/// A timed run measures its step time over them (all but the first step of the process, which
-/// pays for starting threads and warming caches) and plans the schedule from that, so the
-/// learning rates of these steps cannot depend on the plan.
-pub const CALIBRATION_STEPS: u64 = 10;
 
 /// Share of the time budget a plan fills: the rest absorbs step-time noise and the final
 /// checkpoint, so the schedule ends before the hard stop. Re-planning keeps the plan true as
@@ -171,48 +122,6 @@ pub struct Outcome {
     /// The median wall time of this process's steps after its first (`None` with fewer than
     /// two): what a plan is made from.
     pub median_step_seconds: Option<f64>,
-}
-
-/// A timed run's learning-rate schedule: from `anchor_step` on, the cosine's phase runs
-/// linearly from `anchor_phase` to 1 at `length`. The first plan anchors at the end of the
-/// calibration steps with phase 0; a re-plan anchors at the step it is made with the phase
-/// reached there, so the learning rate never jumps, only the pace of its decay changes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SchedulePlan {
-    /// The step the plan was made at (0-based: the next step to run).
-    pub anchor_step: u64,
-    /// The cosine's phase in [0, 1] at `anchor_step`.
-    pub anchor_phase: f64,
-    /// The schedule's length: the phase reaches 1 at this step.
-    pub length: u64,
-}
-
-impl SchedulePlan {
-    /// The plain schedule of `length` steps: phase 0 through the calibration steps, then linear
-    /// to 1 at `length`.
-    pub fn plain(length: u64) -> SchedulePlan {
-        SchedulePlan {
-            anchor_step: CALIBRATION_STEPS.min(length),
-            anchor_phase: 0.0,
-            length,
-        }
-    }
-
-    /// The cosine's phase at `step` (0-based), in [0, 1].
-    pub fn phase(&self, step: u64) -> f64 {
-        let done = step.saturating_sub(self.anchor_step) as f64;
-        let span = self.length.saturating_sub(self.anchor_step).max(1) as f64;
-        self.anchor_phase + (1.0 - self.anchor_phase) * (done / span).min(1.0)
-    }
-
-    /// The plan from `step` on with a new `length`, continuing this plan's phase.
-    fn replanned(&self, step: u64, length: u64) -> SchedulePlan {
-        SchedulePlan {
-            anchor_step: step,
-            anchor_phase: self.phase(step),
-            length,
-        }
-    }
 }
 
 /// Learning rate at `step` (0-based) of a schedule `o.steps` long ([`schedule_rate`]).

@@ -1,7 +1,7 @@
 //! Samplers: determinism, geometry of contour samples, exactness of plane targets, absences.
 
-use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
-use dynaslice_data::{Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
+use dynaslice_sequence::{Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
+use dynaslice_synth::{slice_sequence, BenchmarkOptions, Shape};
 use dynaslice_train::sampling::*;
 
 /// Two classes on two tilted planes at two times: a disc-like polygon with a hole for class 0,

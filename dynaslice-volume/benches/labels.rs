@@ -21,8 +21,8 @@
 
 use anyhow::{bail, Context, Result};
 use dynaslice_core::{Model, ModelBytes, Scratch};
-use dynaslice_data::synth::{self, BenchmarkOptions, Shape};
 use dynaslice_data::{Space, Units};
+use dynaslice_synth::{BenchmarkOptions, Shape};
 use dynaslice_train::fit::{fit, InputRecord, Quiet};
 use dynaslice_train::spec::TrainSpec;
 use dynaslice_volume::{label_indices_with, Evaluation, VoxelGrid, DEFAULT_SAFETY};
@@ -72,7 +72,7 @@ fn trained_model(a: &Args) -> Result<ModelBytes> {
         eprintln!("model: {}", a.model.display());
         return Ok(ModelBytes::read(&a.model)?);
     }
-    let seq = synth::slice_sequence(Shape::Chambers, &BenchmarkOptions::default())?;
+    let seq = dynaslice_synth::slice_sequence(Shape::Chambers, &BenchmarkOptions::default())?;
     let spec = TrainSpec {
         steps: Some(a.steps),
         ..TrainSpec::default()

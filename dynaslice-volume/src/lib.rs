@@ -15,7 +15,7 @@
 //! ([`dynaslice_data::color_table`]), and for a series of 3D Slicer segmentations the one
 //! `.seq.nrrd` sequence Slicer's Sequences module loads ([`dynaslice_data::nrrd::SequenceWriter`]).
 //! Class colours are the model input's where recorded, else the one palette's
-//! ([`dynaslice_data::palette`]).
+//! ([`dynaslice_sequence::palette`]).
 
 #![warn(missing_docs)]
 
@@ -137,7 +137,7 @@ pub struct WriteOptions {
     /// How each frame's labels are computed (`Evaluation::Dense` is `dynaslice labels --dense`).
     pub evaluation: Evaluation,
     /// Each class's display colour (channel order) where the model's input gave one; the
-    /// others, and classes past the end, take [`dynaslice_data::palette::palette`]'s.
+    /// others, and classes past the end, take [`dynaslice_sequence::palette::palette`]'s.
     pub colors: Vec<Option<[u8; 3]>>,
     /// Also write the companion files ([`output_files`]): beside a NIfTI volume its colour
     /// tables (`NAME.ctbl` for 3D Slicer, `NAME.label.txt` for ITK-SNAP), beside a series of

@@ -1,7 +1,7 @@
 //! The sampling grid of a label volume: voxels, their world positions and the frame times.
 
 use anyhow::{bail, ensure, Result};
-use dynaslice_data::nifti::Geometry;
+use dynaslice_data::label_volume::Geometry;
 
 /// Where a label volume samples the model: `dims` voxels whose centres are at
 /// `world = affine · (i, j, k, 1)`, at each of `times` (one frame per time).
@@ -20,7 +20,7 @@ impl VoxelGrid {
     /// f · frame interval, the times the NIfTI reader gives a volume's frames when it trains
     /// on it ([`dynaslice_data::reslice`]), so a model trained on `reference` is queried at its
     /// own frames. From a file's header alone ([`dynaslice_data::nifti::read_geometry`]) or a
-    /// volume in memory ([`dynaslice_data::nifti::LabelVolume::geometry`]).
+    /// volume in memory ([`dynaslice_data::label_volume::LabelVolume::geometry`]).
     pub fn like(reference: &Geometry) -> VoxelGrid {
         VoxelGrid {
             dims: reference.dims,
@@ -92,7 +92,7 @@ impl VoxelGrid {
 
     /// World volume of one voxel, |det A|.
     pub fn voxel_volume(&self) -> f64 {
-        dynaslice_data::nifti::det3(&self.affine).abs()
+        dynaslice_data::label_volume::det3(&self.affine).abs()
     }
 
     /// The time between frames (1 for a single frame, the NIfTI convention for "unknown").
@@ -132,9 +132,9 @@ mod tests {
     #[test]
     fn bounds_grid_matches_the_benchmark_truth_grid() {
         let g = VoxelGrid::from_bounds([-1.0; 3], [1.0; 3], [2.0 / 64.0; 3], vec![0.0]).unwrap();
-        let truth = dynaslice_data::synth::label_volume(
-            dynaslice_data::synth::Shape::Blob,
-            &dynaslice_data::synth::BenchmarkOptions {
+        let truth = dynaslice_synth::label_volume(
+            dynaslice_synth::Shape::Blob,
+            &dynaslice_synth::BenchmarkOptions {
                 timesteps: 2,
                 volume_resolution: 64,
                 ..Default::default()

@@ -14,7 +14,7 @@ fn main() -> Result<(), fixtures::Error> {
     let root = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "corpus".into()));
     let written = TARGETS.iter().try_for_each(|target| {
         let dir = root.join(target);
-        let n = fixtures::write_seeds(target, &dir)?;
+        let n = readers::write_seeds(target, &dir)?;
         println!("wrote {n} seeds to {}", dir.display());
         Ok(())
     });

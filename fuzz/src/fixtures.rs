@@ -2,7 +2,7 @@
 //! (and, for RT Structure Sets, dicom-rs): the seeds `examples/seed_corpus.rs` writes, and the
 //! files of the `manifest` target's sandbox.
 //!
-//! [`seeds`] gives a target's seeds, [`write_seeds`] writes them after checking that the
+//! [`seeds`] gives a target's seeds, [`crate::readers::write_seeds`] writes them after checking that the
 //! target's reader accepts each.
 //!
 //! A fuzzer that starts from valid files reaches the checks behind the first few bytes (and the
@@ -22,13 +22,15 @@ use dicom_dictionary_std::{tags, uids};
 use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
 use dynaslice_core::format::{ModelWriter, WeightType};
 use dynaslice_core::Domain;
-use dynaslice_data::nifti::{write_volume, LabelVolume};
+use dynaslice_data::label_volume::LabelVolume;
+use dynaslice_data::nifti::write_volume;
 use dynaslice_data::nrrd::{write_segmentation, SegmentationHeader};
-use dynaslice_data::{csl, native, ClassInfo, LabelTable, Sequence};
+use dynaslice_data::{csl, ClassInfo, LabelTable, Sequence};
+use dynaslice_sequence::native;
 use dynaslice_test_support::fixtures::{csl_file, SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE};
 use dynaslice_train::adam::{Adam, AdamConfig};
 use dynaslice_train::checkpoint::Checkpoint;
-use dynaslice_train::trainer::SchedulePlan;
+use dynaslice_train::schedule_plan::SchedulePlan;
 
 /// A named input: the file name it is written under and its bytes.
 pub type Named = (String, Vec<u8>);
@@ -659,20 +661,4 @@ pub fn checkpoint_files(work: &Path) -> Result<Vec<Named>, Error> {
     bytes.write_all(&v1)?;
     out.push(named("v1_n1.ckpt", bytes));
     Ok(out)
-}
-
-/// Writes the seeds of `target` into `dir` as `seed-NAME`, after checking that the target's
-/// reader accepts each ([`crate::readers::accepts`]): a refused seed would only test the first
-/// error path. Returns how many were written.
-pub fn write_seeds(target: &str, dir: &Path) -> Result<usize, Error> {
-    let work = crate::readers::scratch_dir().join("work").join(target);
-    std::fs::create_dir_all(&work)?;
-    let files = seeds(target, &work)?;
-    std::fs::create_dir_all(dir)?;
-    for (name, bytes) in &files {
-        crate::readers::accepts(target, name, bytes)
-            .map_err(|e| format!("the {target} seed {name} is refused: {e}"))?;
-        std::fs::write(dir.join(format!("seed-{name}")), bytes)?;
-    }
-    Ok(files.len())
 }

@@ -36,7 +36,7 @@ pub const TARGETS: [&str; 10] = [
 ];
 
 /// Each target's initialisation: when `DYNASLICE_FUZZ_SEEDS` names a folder, writes the
-/// target's seeds there ([`fixtures::write_seeds`]) before libFuzzer reads its corpus, so a
+/// target's seeds there ([`readers::write_seeds`]) before libFuzzer reads its corpus, so a
 /// run needs no separate seed build (`scripts/ci-fuzz.sh` passes the corpus folder). A seed
 /// the reader refuses stops the run.
 pub fn init(target: &str) {
@@ -44,7 +44,7 @@ pub fn init(target: &str) {
         allow_dicom_rs_panics();
     }
     if let Some(dir) = std::env::var_os("DYNASLICE_FUZZ_SEEDS") {
-        match fixtures::write_seeds(target, std::path::Path::new(&dir)) {
+        match readers::write_seeds(target, std::path::Path::new(&dir)) {
             Ok(n) => eprintln!("{target}: {n} seeds written to {}", dir.to_string_lossy()),
             Err(e) => panic!("{target}: cannot write the seeds: {e}"),
         }

@@ -17,12 +17,13 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use dynaslice_data::input::{self, InputOptions};
-use dynaslice_data::nifti::{det3, LabelVolume};
+use dynaslice_data::label_volume::{det3, LabelVolume};
 use dynaslice_data::rtstruct::{self, RoiExtent};
-use dynaslice_data::{csl, manifest, native, nrrd, LabelTable, Sequence};
+use dynaslice_data::{csl, manifest, nrrd, LabelTable, Sequence};
+use dynaslice_sequence::native;
 use dynaslice_train::adam::{Adam, AdamConfig};
 use dynaslice_train::checkpoint::Checkpoint;
-use dynaslice_train::trainer::SchedulePlan;
+use dynaslice_train::schedule_plan::SchedulePlan;
 
 use crate::fixtures;
 
@@ -394,4 +395,20 @@ pub fn accepts(target: &str, name: &str, bytes: &[u8]) -> Result<(), fixtures::E
         _ => return Err(format!("no fuzz target {target}").into()),
     }
     Ok(())
+}
+
+/// Writes the seeds of `target` into `dir` as `seed-NAME`, after checking that the target's
+/// reader accepts each ([`accepts`]): a refused seed would only test the first
+/// error path. Returns how many were written.
+pub fn write_seeds(target: &str, dir: &Path) -> Result<usize, fixtures::Error> {
+    let work = scratch_dir().join("work").join(target);
+    std::fs::create_dir_all(&work)?;
+    let files = fixtures::seeds(target, &work)?;
+    std::fs::create_dir_all(dir)?;
+    for (name, bytes) in &files {
+        accepts(target, name, bytes)
+            .map_err(|e| format!("the {target} seed {name} is refused: {e}"))?;
+        std::fs::write(dir.join(format!("seed-{name}")), bytes)?;
+    }
+    Ok(files.len())
 }

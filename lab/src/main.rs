@@ -59,7 +59,7 @@ fn schedule(a: ScheduleArgs) -> anyhow::Result<()> {
     println!("| shape | schedule | seed | steps / schedule | s | IoU | CD×10⁴ |");
     println!("|---|---|---|---|---|---|---|");
     for name in &a.shapes {
-        let shape = dynaslice_data::synth::Shape::ALL
+        let shape = dynaslice_synth::Shape::ALL
             .into_iter()
             .find(|s| s.name() == name)
             .ok_or_else(|| anyhow::anyhow!("unknown shape {name:?}"))?;

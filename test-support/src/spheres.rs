@@ -143,7 +143,7 @@ pub fn writer_in(domain: Domain, spheres: &[Sphere], classes: &[(&str, i32)]) ->
 }
 
 /// Three static spheres of `scale` times `radii`, in world coordinates (the identity domain):
-/// with the synthetic benchmark's `dynaslice_data::synth::shapes::chambers(t)` at `scale` = 1, a
+/// with the synthetic benchmark's `dynaslice_synth::shapes::chambers(t)` at `scale` = 1, a
 /// model of the exact shapes at that instant, for testing the benchmark's scores.
 pub fn chambers_model((centres, radii): ([[f64; 3]; 3], [f64; 3]), scale: f64) -> Vec<u8> {
     let spheres: Vec<Sphere> = (0..3)

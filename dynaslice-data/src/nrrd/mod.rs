@@ -55,7 +55,7 @@
 //! `Segmentation_ContainedRepresentationNames:=Binary labelmap|` and
 //! `Segmentation_ReferenceImageExtentOffset:=0 0 0`. Key values escape `\` and newlines as the
 //! NRRD format says (`\\`, `\n`). The file is written under a temporary name and renamed
-//! ([`crate::atomic::write_atomically`]): a failure leaves no partial file.
+//! ([`dynaslice_output::write_atomically`]): a failure leaves no partial file.
 //!
 //! A series of frames can also be written as one 3D Slicer sequence ([`SequenceWriter`],
 //! `NAME.seq.nrrd` by [`sequence_path`]): a 4D file, the frames along a last `list` axis, with
@@ -64,16 +64,13 @@
 mod read;
 mod write;
 
-/// The class colours of every output ([`crate::palette`]), here for the segmentation writer's
-/// callers.
-pub use crate::palette::palette;
 pub use read::read_volume;
 pub use write::{
     frame_path, sequence_path, write_segmentation, SegmentationHeader, SequenceWriter,
 };
 
 #[cfg(doc)]
-use crate::{label_table::LabelTable, nifti::LabelVolume};
+use crate::{label_table::LabelTable, label_volume::LabelVolume};
 
 /// Most samples (voxels × frames × layers) a file may declare: 2³⁰, 4 GiB of decoded i32
 /// labels, well above a 512×512×1000 CT label map or a 256³ × 30-frame cine series.

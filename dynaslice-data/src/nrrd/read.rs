@@ -6,11 +6,11 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::{flip_xy, unescape, MAX_ELEMENTS, MAX_FILE_BYTES};
-use crate::error::{excerpt, DataError, ErrorKind, Result};
-use crate::input_file;
 use crate::label_table::LabelTable;
-use crate::nifti::{det3, LabelVolume};
+use crate::label_volume::{det3, LabelVolume};
 use crate::voxel_type::VoxelType;
+use dynaslice_sequence::error::{excerpt, DataError, ErrorKind, Result};
+use dynaslice_sequence::input_file;
 
 /// Deflate's largest expansion (one 258-byte match per two bits): n bytes of gzip cannot hold
 /// more than this × n bytes of data.

@@ -10,19 +10,19 @@ use flate2::write::GzEncoder;
 use tempfile::TempPath;
 
 use super::{escape, flip_xy};
-use crate::atomic::{create_temporary, persist, write_atomically};
-use crate::error::{DataError, ErrorKind, Result};
-use crate::nifti::det3;
-use crate::palette::palette;
-use crate::sequence::ClassInfo;
+use crate::label_volume::det3;
 use crate::voxel_type::VoxelType;
+use dynaslice_output::{create_temporary, persist, write_atomically};
+use dynaslice_sequence::error::{DataError, ErrorKind, Result};
+use dynaslice_sequence::palette::palette;
+use dynaslice_sequence::sequence::ClassInfo;
 
 /// What a segmentation file describes besides its voxels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SegmentationHeader {
     /// Voxels per axis (x, y, z).
     pub dims: [usize; 3],
-    /// Voxel index → RAS world, as in [`crate::nifti::LabelVolume::affine`]; written in LPS.
+    /// Voxel index → RAS world, as in [`crate::label_volume::LabelVolume::affine`]; written in LPS.
     pub affine: [[f64; 4]; 3],
     /// The segments, in order: each class's label is its voxel value (nonzero, distinct), its
     /// colour the class's or [`palette`] of its position.

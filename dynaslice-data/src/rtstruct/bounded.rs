@@ -33,7 +33,7 @@ use dicom_parser::stateful::decode::{
 use dicom_transfer_syntax_registry::{TransferSyntax, TransferSyntaxIndex, TransferSyntaxRegistry};
 
 use super::{chain, dicom, MAX_NESTING};
-use crate::error::{DataError, Result};
+use dynaslice_sequence::error::{DataError, Result};
 
 /// How a DICOM file was laid out, where it is not a plain Part 10 file (for a warning).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -15,7 +15,7 @@ use dicom_object::InMemDicomObject;
 
 use super::write::{ImageRef, ImageSeries};
 use super::{dicom, get_text, read_object_file};
-use crate::error::{DataError, Result};
+use dynaslice_sequence::error::{DataError, Result};
 
 /// Most files a series folder may hold (a whole-body CT at 0.5 mm has a few thousand).
 pub const MAX_FILES: usize = 20_000;

@@ -38,8 +38,8 @@ use dicom_object::meta::FileMetaTableBuilder;
 use dicom_object::InMemDicomObject;
 
 use super::{dicom, get_items, get_text};
-use crate::atomic::write_atomically;
-use crate::error::Result;
+use dynaslice_output::write_atomically;
+use dynaslice_sequence::error::Result;
 
 /// SOP Class UID of RT Structure Set Storage.
 pub const RT_STRUCTURE_SET_STORAGE: &str = uids::RT_STRUCTURE_SET_STORAGE;

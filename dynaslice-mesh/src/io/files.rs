@@ -6,7 +6,7 @@ use super::super::Mesh;
 use super::{pvd, write, Format, MeshInfo, Space};
 use anyhow::{Context, Result};
 use dynaslice_core::ClassInfo;
-use dynaslice_data::atomic::write_atomically;
+use dynaslice_output::write_atomically;
 use std::path::{Path, PathBuf};
 
 /// The class part of file names: `class{k}_{name}` (k 1-based) with the name reduced to

@@ -24,13 +24,13 @@ mod vtp;
 
 /// The frame mesh vertices are written in (re-exported: meshes, label maps and the model's
 /// record of its input share it).
-pub use dynaslice_data::Space;
+pub use dynaslice_sequence::Space;
 pub use files::{class_tag, MeshFiles};
 pub use stl::read_stl;
 
 use super::Mesh;
 use anyhow::{bail, ensure, Context, Result};
-use dynaslice_data::atomic::write_atomically;
+use dynaslice_output::write_atomically;
 use std::path::Path;
 
 /// A mesh file format.

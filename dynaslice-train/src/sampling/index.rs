@@ -2,8 +2,8 @@
 
 use rayon::prelude::*;
 
-use dynaslice_data::geometry::PolygonSdf;
-use dynaslice_data::{Plane, Sequence};
+use dynaslice_geometry::PolygonSdf;
+use dynaslice_sequence::{Plane, Sequence};
 
 /// One (plane, class) annotation with its distance structure.
 #[derive(Debug)]

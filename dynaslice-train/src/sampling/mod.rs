@@ -1,10 +1,10 @@
 //! Deterministic samplers producing flat, batch-ready arrays for the trainer.
 //!
-//! Build a [`SamplingIndex`] once per [`dynaslice_data::Sequence`], keep one batch of each kind, and
+//! Build a [`SamplingIndex`] once per [`dynaslice_sequence::Sequence`], keep one batch of each kind, and
 //! refill them every step:
 //! ```
 //! # use dynaslice_train::sampling::*;
-//! # fn demo(seq: &dynaslice_data::Sequence, step: u64) {
+//! # fn demo(seq: &dynaslice_sequence::Sequence, step: u64) {
 //! let index = SamplingIndex::new(seq);
 //! let (mut contour, mut plane, mut space) = (ContourBatch::default(), PlaneBatch::default(),
 //!     SpaceTimeBatch::default());
@@ -39,3 +39,16 @@ pub use index::SamplingIndex;
 pub use plane::{PlaneBatch, PlaneSampling, PlaneTarget};
 pub use rng::SampleRng;
 pub use spacetime::{sample_space_time, SpaceTimeBatch};
+
+use crate::objective::Batch;
+
+/// A source of training samples in the network's normalised frame.
+pub trait Sampler {
+    /// Fills `batch` with the samples of step `step`: a pure function of (seed, step), so a
+    /// resumed run sees the same samples.
+    fn sample(&mut self, seed: u64, step: u64, batch: &mut Batch);
+    /// Upper bound on the samples in any one set of a batch (sizes the buffers).
+    fn max_set_len(&self) -> usize;
+    /// A digest of the data, stored in checkpoints.
+    fn fingerprint(&self) -> u64;
+}

@@ -82,7 +82,7 @@ impl SamplingIndex {
     /// Replaces `out` with `per_class[k]` plane samples of each class `k`: (per
     /// [`PlaneSampling::absent_fraction`]) one of its absent or contoured annotations uniformly,
     /// then a point per [`PlaneSampling::near_fraction`]. Exact targets cost one grid query each
-    /// ([`dynaslice_data::geometry::PolygonSdf`]). No allocation once `out` has grown to the total.
+    /// ([`dynaslice_geometry::PolygonSdf`]). No allocation once `out` has grown to the total.
     pub fn sample_planes(
         &self,
         rng: &mut SampleRng,

@@ -1,7 +1,7 @@
 //! Space-time samples for the regulariser ℛ (Eq. 8): uniform over a world box × time range.
 
 use super::rng::SampleRng;
-use dynaslice_data::Aabb;
+use dynaslice_sequence::Aabb;
 
 /// A batch of space-time samples as flat arrays.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -13,8 +13,8 @@ pub struct SpaceTimeBatch {
 }
 
 /// Replaces `out` with `n` points uniform over `bbox` × [`times`.0, `times`.1]. The caller picks
-/// the box, typically [`dynaslice_data::Sequence::bounding_box`] with a margin, and the time range,
-/// typically [`dynaslice_data::Sequence::time_range`]. No allocation once `out` has grown to `n`.
+/// the box, typically [`dynaslice_sequence::Sequence::bounding_box`] with a margin, and the time range,
+/// typically [`dynaslice_sequence::Sequence::time_range`]. No allocation once `out` has grown to `n`.
 pub fn sample_space_time(
     rng: &mut SampleRng,
     n: usize,

@@ -276,7 +276,7 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
+    use dynaslice_synth::{slice_sequence, BenchmarkOptions, Shape};
 
     fn case() -> Case {
         let bench = BenchmarkOptions {

@@ -5,10 +5,10 @@
 
 use super::{cell, fit, Fitted, Protocol};
 use anyhow::{anyhow, Result};
-use dynaslice_data::synth::{slice_sequence, BenchmarkOptions, Shape};
 use dynaslice_data::Sequence;
 use dynaslice_metrics::benchmark::{Resolution, Scores, Truth};
 use dynaslice_metrics::Frames;
+use dynaslice_synth::{slice_sequence, BenchmarkOptions, Shape};
 use dynaslice_train::fit::Quiet;
 use dynaslice_train::spec::TrainSpec;
 use std::fmt::Write as _;

@@ -10,11 +10,13 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use super::shapes::Shape;
-use crate::geometry::marching_squares::contours;
-use crate::nifti::{write_volume, LabelVolume};
-use crate::{
-    native, Annotation, ClassInfo, DataError, Frame, LabelTable, Plane, Rect, Result, Sequence,
+use crate::shapes::Shape;
+use dynaslice_data::label_volume::LabelVolume;
+use dynaslice_data::nifti::write_volume;
+use dynaslice_data::LabelTable;
+use dynaslice_geometry::marching_squares::contours;
+use dynaslice_sequence::{
+    native, Annotation, ClassInfo, DataError, Frame, Plane, Rect, Result, Sequence,
 };
 
 /// Benchmark parameters; [`Default`] is the paper's protocol.

@@ -5,14 +5,12 @@
 //! left. Outer boundaries run counter-clockwise in (u, v) plane coordinates (i.e. about the plane
 //! normal u×v), holes clockwise — the `.csl` convention. The outward normal of an edge with
 //! direction (dx, dy) is then (dy, −dx)/len, and the sign of the distance near a vertex follows
-//! from the two adjacent edge normals (see [`super::sdf`]).
+//! from the two adjacent edge normals (see [`crate::sdf`]).
 
 use std::ops::ControlFlow;
 
-use super::bucket_grid::for_each_near_pair;
-
-/// A point in plane coordinates (u, v).
-pub type Point2 = [f64; 2];
+use crate::bucket_grid::for_each_near_pair;
+use crate::Point2;
 
 /// A closed polygon: vertices in order, the last joined to the first (no repeated closing vertex).
 pub type Polygon = Vec<Point2>;

@@ -2,6 +2,12 @@
 //! ([`polygon`]), a bucket grid over segments ([`bucket_grid`]), the exact signed distance with
 //! outward normals ([`sdf`]), contour extraction from sampled fields ([`marching_squares`]), and the
 //! even-odd repair of crossing contours ([`repair`]).
+//!
+//! Nothing here knows about files or sequences: readers (`dynaslice-data`) validate and repair
+//! contours with it, the trainer samples its distances, and meshing and pictures extract
+//! contours with it.
+
+#![warn(missing_docs)]
 
 pub mod bucket_grid;
 pub mod marching_squares;
@@ -9,5 +15,8 @@ pub mod polygon;
 pub mod repair;
 pub mod sdf;
 
-pub use polygon::{Point2, Polygon};
+/// A point (u, v) in plane coordinates.
+pub type Point2 = [f64; 2];
+
+pub use polygon::Polygon;
 pub use sdf::PolygonSdf;

@@ -9,9 +9,9 @@
 //! - Contours never cross or touch: each cell emits at most two segments, saddles are resolved by
 //!   the cell-centre average, and a crossing is never placed exactly on a grid node.
 //! - Each contour has the inside on its left (outer boundaries counter-clockwise, holes
-//!   clockwise), matching [`super::polygon::orient_by_nesting`].
+//!   clockwise), matching [`crate::polygon::orient_by_nesting`].
 
-use super::polygon::Polygon;
+use crate::polygon::Polygon;
 
 /// Keeps crossings off grid nodes: a node where `f == 0` exactly would otherwise be shared by up
 /// to four crossings, making zero-length edges or contours touching at a point.
@@ -127,8 +127,8 @@ pub fn contours(values: &[f64], nx: usize, ny: usize) -> Vec<Polygon> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::polygon::{find_crossing, signed_area};
     use super::*;
+    use crate::polygon::{find_crossing, signed_area};
 
     fn field(nx: usize, ny: usize, f: impl Fn(f64, f64) -> f64) -> Vec<f64> {
         (0..ny)

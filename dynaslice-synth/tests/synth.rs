@@ -3,10 +3,9 @@
 
 use dynaslice_data::nifti::read;
 use dynaslice_data::reslice::ResliceOptions;
-use dynaslice_data::synth::{
-    label_volume, slice_sequence, write_benchmark, BenchmarkOptions, Shape,
-};
-use dynaslice_data::{native, LabelTable};
+use dynaslice_data::LabelTable;
+use dynaslice_sequence::native;
+use dynaslice_synth::{label_volume, slice_sequence, write_benchmark, BenchmarkOptions, Shape};
 
 /// Coarse settings keep the test fast; the protocol's counts are unchanged.
 fn small() -> BenchmarkOptions {

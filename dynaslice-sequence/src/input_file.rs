@@ -11,7 +11,7 @@ use std::fs::{File, Metadata};
 use std::io::Read;
 use std::path::Path;
 
-use super::error::{DataError, ErrorKind, Result};
+use crate::error::{DataError, ErrorKind, Result};
 
 /// Why `meta` is not a regular file: `Some("a FIFO")`, …; `None` for a regular file.
 fn not_regular(meta: &Metadata) -> Option<&'static str> {

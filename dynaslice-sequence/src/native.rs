@@ -11,9 +11,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::error::{DataError, ErrorKind, Result};
-use super::input_file;
-use super::sequence::{ClassInfo, Frame, Sequence};
+use crate::error::{DataError, ErrorKind, Result};
+use crate::input_file;
+use crate::sequence::{ClassInfo, Frame, Sequence};
 
 /// Value of the document's `format` field.
 pub const FORMAT_NAME: &str = "dynaslice-sections";

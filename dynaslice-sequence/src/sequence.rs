@@ -15,9 +15,9 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::error::{DataError, ErrorKind, Result};
-use crate::geometry::polygon::{find_crossing, orient_by_nesting, signed_area};
-use crate::geometry::{Point2, Polygon};
+use crate::error::{DataError, ErrorKind, Result};
+use dynaslice_geometry::polygon::{find_crossing, orient_by_nesting, signed_area};
+use dynaslice_geometry::{Point2, Polygon};
 
 /// Tolerance on ‖u‖ − 1, ‖v‖ − 1 and u·v for a plane's axes.
 pub const AXIS_TOLERANCE: f64 = 1e-6;
@@ -314,12 +314,12 @@ fn grow(b: &mut Aabb, x: [f64; 3]) {
 }
 
 /// The dot product a·b of two 3-vectors.
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// The cross product a × b of two 3-vectors (right-handed).
-pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],

@@ -3,7 +3,7 @@
 //! Hand-drawn contours loop over themselves, touch themselves at a point and cross their
 //! neighbours. Read with the even-odd rule (a point is inside when a ray from it crosses the
 //! contours an odd number of times) such a set of rings still bounds one well-defined region, the
-//! one a scanline rasteriser fills, and it is the rule [`Sequence::new`](crate::Sequence::new)
+//! one a scanline rasteriser fills, and it is the rule `Sequence::new` (dynaslice-sequence)
 //! already applies to nested rings (nesting parity decides outer boundaries and holes). So the
 //! repair replaces the rings by simple rings bounding the same even-odd region.
 //!
@@ -14,7 +14,7 @@
 //! contours cross. A hand-written split at self-intersections would need its own robust handling
 //! of collinear overlaps, T-junctions and crossings between rings; the crate has it.
 //!
-//! Only what [`Sequence::new`](crate::Sequence::new) would refuse is repaired: rings that merely
+//! Only what `Sequence::new` (dynaslice-sequence) would refuse is repaired: rings that merely
 //! share a vertex without crossing there (a pinch) are left to the validator, which separates them
 //! itself (see `separate_pinches` in `sequence.rs`).
 
@@ -26,8 +26,9 @@ use i_overlay::core::solver::Solver;
 use i_overlay::float::overlay::OverlayOptions;
 use i_overlay::float::simplify::SimplifyShape;
 
-use super::bucket_grid::for_each_near_pair;
-use super::polygon::{ring_edges, segments_intersect, signed_area, Point2, Polygon};
+use crate::bucket_grid::for_each_near_pair;
+use crate::polygon::{ring_edges, segments_intersect, signed_area, Polygon};
+use crate::Point2;
 
 /// Where the rings of one annotation cross or touch in a way only an even-odd repair resolves.
 #[derive(Debug, Clone, PartialEq)]
@@ -249,7 +250,7 @@ mod tests {
     fn area(polys: &[Polygon]) -> f64 {
         // Even-odd area of non-crossing rings: outer minus holes, by nesting parity.
         let mut v = polys.to_vec();
-        super::super::polygon::orient_by_nesting(&mut v);
+        crate::polygon::orient_by_nesting(&mut v);
         v.iter().map(|p| signed_area(p)).sum()
     }
 

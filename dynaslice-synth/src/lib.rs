@@ -3,6 +3,8 @@
 //! evaluation (Sec. 4). `dynaslice synth -o DIR` runs [`write_benchmark`]; metrics evaluate
 //! [`Shape::sdf`] directly.
 
+#![warn(missing_docs)]
+
 pub mod benchmark;
 pub mod shapes;
 

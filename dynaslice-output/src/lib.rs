@@ -366,7 +366,7 @@ mod tests {
                 .arg("-c")
                 .arg(format!(
                     "umask {umask} && exec \"$0\" --ignored --exact --quiet \
-                     atomic::tests::write_for_the_umask_test"
+                     tests::write_for_the_umask_test"
                 ))
                 .arg(std::env::current_exe().unwrap())
                 .env("DYNASLICE_UMASK_DIR", dir.path())

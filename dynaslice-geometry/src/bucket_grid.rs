@@ -1,13 +1,13 @@
 //! Buckets of line segments on grids: the dense uniform grid of the signed distance
-//! ([`super::sdf`]) and the sparse grid of the crossing tests ([`for_each_near_pair`]:
-//! [`super::polygon::find_crossing`], [`super::repair::find_contacts`]).
+//! ([`crate::sdf`]) and the sparse grid of the crossing tests ([`for_each_near_pair`]:
+//! [`crate::polygon::find_crossing`], [`crate::repair::find_contacts`]).
 //!
 //! A uniform grid suits cross-section contours: segments are short and of similar length, so about
 //! one segment per cell keeps every bucket small with no tree to balance.
 
 use std::ops::ControlFlow;
 
-use super::polygon::Point2;
+use crate::Point2;
 
 /// Segments bucketed by the cells their bounding boxes overlap (a conservative cover).
 #[derive(Debug, Clone)]

@@ -3,12 +3,12 @@
 //! at 50 000 points spread over the region of interest and concentrated near the contours, as
 //! the plane sampler draws them.
 //!
-//! `cargo bench -p dynaslice-data --bench sdf` prints criterion's estimate per plane; the
+//! `cargo bench -p dynaslice-geometry --bench sdf` prints criterion's estimate per plane; the
 //! summary line gives the median in milliseconds and ns per sample, and the brute-force cost of
 //! the same queries (every segment visited) measured in the same run, for scale.
 
 use criterion::{Criterion, Throughput};
-use dynaslice_data::geometry::{Point2, Polygon, PolygonSdf};
+use dynaslice_geometry::{Point2, Polygon, PolygonSdf};
 use std::f64::consts::TAU;
 use std::hint::black_box;
 use std::time::Instant;

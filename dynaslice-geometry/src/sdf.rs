@@ -12,13 +12,14 @@
 //! the first segment that cannot beat the best distance so far. Points outside the grid (the
 //! plane's region of interest grown to cover the contours) fall back to a scan of all segments.
 //!
-//! Sign: the polygons must be oriented by [`super::polygon::orient_by_nesting`] (region on the
+//! Sign: the polygons must be oriented by [`crate::polygon::orient_by_nesting`] (region on the
 //! left). The sign then comes from the nearest feature: the side of the nearest edge, or, when the
 //! nearest point is a vertex, the side of the sum of the two adjacent edge normals (the 2D
 //! angle-weighted pseudo-normal, Bærentzen & Aanæs 2005), which is exact for closest points.
 
-use super::bucket_grid::BucketGrid;
-use super::polygon::{Point2, Polygon};
+use crate::bucket_grid::BucketGrid;
+use crate::polygon::Polygon;
+use crate::Point2;
 
 #[derive(Debug, Clone, Copy)]
 struct Seg {
@@ -62,7 +63,7 @@ pub struct PolygonSdf {
 
 impl PolygonSdf {
     /// Builds the distance structure for `polys`, which must be validated (closed, ≥ 3 distinct
-    /// vertices, no crossings) and oriented by [`super::polygon::orient_by_nesting`]. The grid
+    /// vertices, no crossings) and oriented by [`crate::polygon::orient_by_nesting`]. The grid
     /// covers `region` (e.g. the plane's region of interest) and the contours. `None` when
     /// `polys` is empty (the class is absent on the plane: there is no distance to give).
     pub fn new(polys: &[Polygon], region: Option<(Point2, Point2)>) -> Option<Self> {
@@ -328,8 +329,8 @@ fn segment_meets_rect(lo: Point2, hi: Point2, a: Point2, b: Point2) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::super::polygon::{contains_even_odd, find_crossing, orient_by_nesting};
     use super::*;
+    use crate::polygon::{contains_even_odd, find_crossing, orient_by_nesting};
     use proptest::prelude::*;
 
     /// Brute force: minimum over all edges, sign by the even-odd rule.

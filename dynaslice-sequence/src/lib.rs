@@ -1,0 +1,28 @@
+//! DynaSlice's data model: the sequence of annotated cross-sections ([`Sequence`]) that every
+//! reader produces and the trainer consumes.
+//!
+//! | concept | here |
+//! | --- | --- |
+//! | the sequence, its frames, planes, annotations and classes, and their validation | [`sequence`] |
+//! | what is wrong with an input, and exactly where | [`DataError`] |
+//! | the native JSON form (`docs/data-format.md`) | [`native::read`], [`native::write`] |
+//! | opening a user's file: regular files only, reads capped by the format | [`input_file`] |
+//! | the patient frame and units coordinates come in | [`Space`], [`Units`] |
+//! | the class colours every output shares | [`palette`] |
+//!
+//! The file formats users bring (`.csl`, NIfTI, NRRD, DICOM RT Structure Sets) are read by
+//! `dynaslice-data` into this type; nothing here depends on them, so meshing, the model service
+//! and the trainer need no DICOM or NIfTI code.
+
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod input_file;
+pub mod native;
+pub mod palette;
+pub mod sequence;
+pub mod space;
+
+pub use error::{DataError, ErrorKind, Location, Result};
+pub use sequence::{Aabb, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
+pub use space::{Space, Units};
