@@ -70,8 +70,9 @@
 /**
  * A time outside the model's time range (`ds_time_range`, to a rounding slack of 10⁻⁴ of the
  * range), or a NaN or infinite time. The network was fitted only inside the range and
- * extrapolates freely outside it, so such a time is refused, never answered: the same rule as
- * `dynaslice query`, `dynaslice mesh` and the Python package. Nothing is written.
+ * extrapolates freely outside it, so such a time is refused, never answered: the same rule (the
+ * core's `Domain::contains_time`) as `dynaslice query` and the Python package. Nothing is
+ * written.
  */
 #define DS_E_TIME_OUT_OF_RANGE -11
 

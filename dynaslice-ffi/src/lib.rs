@@ -53,8 +53,9 @@ pub const DS_E_INVALID_ARGUMENT: c_int = -9;
 pub const DS_E_INTERNAL: c_int = -10;
 /// A time outside the model's time range (`ds_time_range`, to a rounding slack of 10⁻⁴ of the
 /// range), or a NaN or infinite time. The network was fitted only inside the range and
-/// extrapolates freely outside it, so such a time is refused, never answered: the same rule as
-/// `dynaslice query`, `dynaslice mesh` and the Python package. Nothing is written.
+/// extrapolates freely outside it, so such a time is refused, never answered: the same rule (the
+/// core's `Domain::contains_time`) as `dynaslice query` and the Python package. Nothing is
+/// written.
 pub const DS_E_TIME_OUT_OF_RANGE: c_int = -11;
 
 /// The label `ds_label` and `ds_label_batch` report for a NaN or infinite point, where no
@@ -388,11 +389,10 @@ pub unsafe extern "C" fn ds_model_open(path: *const c_char, out: *mut *mut DsMod
             span("path", path, c_path.to_bytes_with_nul().len()),
             span("out", out, 1),
         ])?;
-        let path = c_path;
         #[cfg(unix)]
-        let path = <std::ffi::OsStr as std::os::unix::ffi::OsStrExt>::from_bytes(path.to_bytes());
+        let path = <std::ffi::OsStr as std::os::unix::ffi::OsStrExt>::from_bytes(c_path.to_bytes());
         #[cfg(not(unix))]
-        let path = path
+        let path = c_path
             .to_str()
             .map_err(|_| Failure::new(DS_E_INVALID_ARGUMENT, "`path` is not UTF-8"))?;
         let path = std::path::Path::new(path);
