@@ -68,7 +68,16 @@
 #define DS_E_INTERNAL -10
 
 /**
- * The label `ds_label` and `ds_label_batch` report for a NaN or infinite query, where no
+ * A time outside the model's time range (`ds_time_range`, to a rounding slack of 10⁻⁴ of the
+ * range), or a NaN or infinite time. The network was fitted only inside the range and
+ * extrapolates freely outside it, so such a time is refused, never answered: the same rule (the
+ * core's `Domain::contains_time`) as `dynaslice query` and the Python package. Nothing is
+ * written.
+ */
+#define DS_E_TIME_OUT_OF_RANGE -11
+
+/**
+ * The label `ds_label` and `ds_label_batch` report for a NaN or infinite point, where no
  * class can be chosen.
  */
 #define DS_LABEL_UNDEFINED UINT32_MAX
@@ -100,7 +109,8 @@ extern "C" {
  * `path` is a NUL-terminated path (bytes as given on POSIX, UTF-8 elsewhere) of a regular file:
  * a FIFO, device or directory fails with `DS_E_IO` before it is opened (opening a FIFO would
  * block). Returns 0, or a negative `DS_E_*` code with `*out` set to NULL (when `out` itself is
- * not NULL). Free the model with `ds_model_free`.
+ * not NULL). `DS_E_INVALID_ARGUMENT` when `out` overlaps the string `path`. Free the model with
+ * `ds_model_free`.
  *
  * # Safety
  * `path` must be NULL or a NUL-terminated string; `out` NULL or a writable `DsModel *`.
@@ -112,6 +122,7 @@ int ds_model_open(const char *path, DsModel **out);
  * free them as soon as this returns) into a new model stored in `*out`.
  *
  * Returns 0, or a negative `DS_E_*` code with `*out` set to NULL (when `out` is not NULL).
+ * `DS_E_INVALID_ARGUMENT` when `out` overlaps the `len` bytes.
  *
  * # Safety
  * `bytes` must be NULL or point to `len` readable bytes; `out` NULL or a writable `DsModel *`.
@@ -164,12 +175,26 @@ int ds_class_label(const DsModel *model, uint32_t k, int32_t *label);
 int ds_metadata(const DsModel *model, char *buf, size_t len);
 
 /**
- * Stores the time range the model was trained on, in world time units (usually seconds).
+ * Stores the time range the model was trained on, in world time units (usually seconds): the
+ * times the evaluation calls answer. A time outside it (beyond a rounding slack of 10⁻⁴ of the
+ * range), NaN or ±∞ is refused with `DS_E_TIME_OUT_OF_RANGE`; `ds_check_time` applies the same
+ * test. A static model (trained on one timestep) has a nominal range of one time unit from that
+ * timestep's time and the same answers at every time in it.
  *
  * # Safety
  * `model` must be NULL or a live model; `t_min`, `t_max` NULL or writable floats.
  */
 int ds_time_range(const DsModel *model, float *t_min, float *t_max);
+
+/**
+ * Returns 0 when the evaluation calls answer `model` at time `t`, else
+ * `DS_E_TIME_OUT_OF_RANGE` with a message naming the range (see `ds_time_range`): the exact test
+ * every call that takes a time applies, for hosts that check a time once before many queries.
+ *
+ * # Safety
+ * `model` must be NULL or a live model.
+ */
+int ds_check_time(const DsModel *model, float t);
 
 /**
  * Stores the world bounding box the model was trained on, in world units (usually mm): 3 floats
@@ -183,9 +208,11 @@ int ds_bounds(const DsModel *model, float *min_xyz, float *max_xyz);
 /**
  * Evaluates the K signed distances f(x, t) at world point `xyz` (3 floats) and world time `t`
  * into `sdf[0..K]` (world units; negative inside class k). `sdf` holds `sdf_len >= K` floats;
- * entries past K are left untouched. Every finite query gives finite distances, however far
- * outside the model's domain; a NaN or infinite query gives NaN distances (and returns 0).
- * `DS_E_INVALID_ARGUMENT` when `sdf` overlaps `xyz`.
+ * entries past K are left untouched. `t` must lie in the model's time range (`ds_time_range`):
+ * otherwise, NaN and ±∞ included, the call returns `DS_E_TIME_OUT_OF_RANGE` and writes nothing.
+ * Every finite point gives finite distances, however far outside the model's bounds; a NaN or
+ * infinite point gives NaN distances (and returns 0). `DS_E_INVALID_ARGUMENT` when `sdf`
+ * overlaps `xyz`.
  *
  * # Safety
  * `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `sdf` NULL or
@@ -196,7 +223,7 @@ int ds_eval(const DsModel *model, const float *xyz, float t, float *sdf, size_t 
 /**
  * Like `ds_eval`, and also stores the exact spatial gradients (world units): `grad` holds
  * `3 * K` floats (K = `ds_num_classes`), and row k-1 (`grad[3(k-1)..3k]`) receives ∇ₓf^k for k
- * in 1..=K.
+ * in 1..=K. Times, NaN and far points as in `ds_eval`.
  *
  * # Safety
  * As `ds_eval`, and `grad` NULL or `3 * K` writable floats overlapping neither `xyz` nor `sdf`.
@@ -211,7 +238,7 @@ int ds_eval_grad(const DsModel *model,
 /**
  * Like `ds_eval_grad`, and also stores ∂f^k/∂t (world units per world time unit) in
  * `dfdt[k-1]`; `dfdt` holds `sdf_len` floats. With ∇ₓf this gives the surface's normal velocity
- * −(∂f/∂t)/‖∇ₓf‖.
+ * −(∂f/∂t)/‖∇ₓf‖. Times, NaN and far points as in `ds_eval`.
  *
  * # Safety
  * As `ds_eval_grad`, and `dfdt` NULL or `sdf_len` writable floats overlapping no other buffer.
@@ -226,7 +253,8 @@ int ds_eval_jacobian(const DsModel *model,
 
 /**
  * Stores the Eq. 11 label at (`xyz`, `t`) in `*label`: 0 for background, k when f^k is negative
- * and the smallest, `DS_LABEL_UNDEFINED` for a NaN or infinite query (which still returns 0).
+ * and the smallest, `DS_LABEL_UNDEFINED` for a NaN or infinite point (which still returns 0).
+ * A time outside the model's range is refused as in `ds_eval` (`*label` is not written).
  *
  * # Safety
  * `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `label` NULL or a
@@ -237,9 +265,12 @@ int ds_label(const DsModel *model, const float *xyz, float t, uint32_t *label);
 /**
  * The K distances at each of `n` points: point i is `xyz[3i..3i+3]` at time `t[i]`, and its
  * answers go to `sdf[iK..(i+1)K]` (row-major, `n * K` floats). NaN or infinite points give NaN
- * rows. Uses the SIMD batch kernels (AVX-512/AVX2 when the CPU has them), so results may differ
- * from `ds_eval` in the last bits. Runs on the calling thread only; call it from several
- * threads on disjoint ranges to use more cores. `n == 0` is a no-op (pointers still checked).
+ * rows. Every `t[i]` must lie in the model's time range (`ds_time_range`): when one does not
+ * (NaN and ±∞ included), the call returns `DS_E_TIME_OUT_OF_RANGE` and writes nothing at all,
+ * and the message names the first such i and how many more there are. Uses the SIMD batch
+ * kernels (AVX-512/AVX2 when the CPU has them), so results may differ from `ds_eval` in the
+ * last bits. Runs on the calling thread only; call it from several threads on disjoint ranges
+ * to use more cores. `n == 0` is a no-op (pointers still checked).
  *
  * # Safety
  * `model` must be NULL or a live model; `xyz` NULL or `3n` readable floats; `t` NULL or `n`
@@ -249,7 +280,8 @@ int ds_eval_batch(const DsModel *model, size_t n, const float *xyz, const float 
 
 /**
  * Like `ds_eval_batch`, and also stores ∇ₓf: `grad` holds `n * K * 3` floats, and
- * `grad[3(iK + k-1)..3(iK + k)]` receives ∇ₓf^k at point i.
+ * `grad[3(iK + k-1)..3(iK + k)]` receives ∇ₓf^k at point i. A time outside the model's range
+ * is refused as in `ds_eval_batch`: neither `sdf` nor `grad` is written.
  *
  * # Safety
  * As `ds_eval_batch`, and `grad` NULL or `3nK` writable floats overlapping no other buffer.
@@ -263,7 +295,8 @@ int ds_eval_grad_batch(const DsModel *model,
 
 /**
  * The Eq. 11 label of each of `n` points into `labels[0..n]` (see `ds_label`), with the batch
- * kernels of `ds_eval_batch` (same threading and rounding notes).
+ * kernels of `ds_eval_batch` (same threading and rounding notes, and the same refusal of a
+ * time outside the model's range: nothing written).
  *
  * # Safety
  * `model` must be NULL or a live model; `xyz` NULL or `3n` readable floats; `t` NULL or `n`

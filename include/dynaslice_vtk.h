@@ -10,8 +10,15 @@
  *
  * EvaluateFunction returns f^k in world units (negative inside), EvaluateGradient the exact
  * ∇ₓf^k, and the vtkDataArray form evaluates many points through ds_eval_batch. Evaluation does
- * not modify the object, so VTK's SMP filters may call it from many threads at once. Without a
- * model, or with a class outside 1..K, every value is NaN.
+ * not modify the object's settings, so VTK's SMP filters may call it from many threads at once.
+ * Without a model, or with a class outside 1..K, every value is NaN.
+ *
+ * The time must lie in the model's time range (ds_time_range), as for every DynaSlice front end:
+ * the function never extrapolates in time. SetTime with a model in place reports a time outside
+ * it through vtkErrorMacro at once; evaluating at such a time (or one set before the model)
+ * gives NaN everywhere and reports the library's message through vtkErrorMacro, once per time
+ * and model. CheckTime() returns DS_OK or DS_E_TIME_OUT_OF_RANGE for a host to stop before
+ * sampling.
  */
 #ifndef DYNASLICE_VTK_H
 #define DYNASLICE_VTK_H
@@ -23,6 +30,7 @@
 #include <vtkIndent.h>
 #include <vtkObjectFactory.h>
 
+#include <atomic>
 #include <cstdint>
 #include <limits>
 #include <ostream>
@@ -44,6 +52,7 @@ public:
       this->Release();
       this->Model = loaded;
       this->Owned = loaded;
+      this->Reported = false;
       this->Modified();
     }
     return rc;
@@ -57,6 +66,7 @@ public:
   {
     this->Release();
     this->Model = model;
+    this->Reported = false;
     this->Modified();
   }
 
@@ -67,9 +77,31 @@ public:
   vtkSetMacro(Class, uint32_t);
   vtkGetMacro(Class, uint32_t);
 
-  /** The world time of the surface. Default 0. */
-  vtkSetMacro(Time, double);
+  /**
+   * The world time of the surface, in the model's time range (default 0). With a model in place,
+   * a time outside the range is reported through vtkErrorMacro (and evaluation gives NaN).
+   */
+  void SetTime(double time)
+  {
+    if (this->Time == time)
+    {
+      return;
+    }
+    this->Time = time;
+    this->Reported = false;
+    this->Modified();
+    if (this->Model)
+    {
+      this->Report(this->CheckTime());
+    }
+  }
   vtkGetMacro(Time, double);
+
+  /**
+   * DS_OK when the model answers at the current time, DS_E_TIME_OUT_OF_RANGE (detail in
+   * ds_last_error_message) when the time is outside its range, DS_E_NULL_POINTER without a model.
+   */
+  int CheckTime() const { return ds_check_time(this->Model, static_cast<float>(this->Time)); }
 
   using vtkImplicitFunction::EvaluateFunction;
 
@@ -80,7 +112,8 @@ public:
     const float p[3] = { static_cast<float>(x[0]), static_cast<float>(x[1]),
       static_cast<float>(x[2]) };
     if (!this->Usable() ||
-      ds_eval(this->Model, p, static_cast<float>(this->Time), f, DS_MAX_CLASSES) != DS_OK)
+      this->Report(ds_eval(this->Model, p, static_cast<float>(this->Time), f, DS_MAX_CLASSES)) !=
+        DS_OK)
     {
       return std::numeric_limits<double>::quiet_NaN();
     }
@@ -94,8 +127,8 @@ public:
     const float p[3] = { static_cast<float>(x[0]), static_cast<float>(x[1]),
       static_cast<float>(x[2]) };
     const bool ok = this->Usable() &&
-      ds_eval_grad(this->Model, p, static_cast<float>(this->Time), f, grad, DS_MAX_CLASSES) ==
-        DS_OK;
+      this->Report(ds_eval_grad(
+        this->Model, p, static_cast<float>(this->Time), f, grad, DS_MAX_CLASSES)) == DS_OK;
     for (int d = 0; d < 3; d++)
     {
       g[d] = ok ? grad[3 * (this->Class - 1) + d] : std::numeric_limits<double>::quiet_NaN();
@@ -126,8 +159,8 @@ public:
     }
     const bool ok = this->Usable() && input->GetNumberOfComponents() == 3 &&
       (n == 0 ||
-        ds_eval_batch(this->Model, static_cast<size_t>(n), xyz.data(), t.data(), f.data()) ==
-          DS_OK);
+        this->Report(ds_eval_batch(
+          this->Model, static_cast<size_t>(n), xyz.data(), t.data(), f.data())) == DS_OK);
     for (vtkIdType i = 0; i < n; i++)
     {
       output->SetTuple1(i,
@@ -152,6 +185,20 @@ private:
   vtkDynaSliceFunction(const vtkDynaSliceFunction&) = delete;
   void operator=(const vtkDynaSliceFunction&) = delete;
 
+  /**
+   * Reports a failed library call through vtkErrorMacro with the library's message (thread-local,
+   * so it is this call's), once until the model or time changes: evaluation runs per point, on
+   * many threads, and one message says it all. Returns `rc`.
+   */
+  int Report(int rc)
+  {
+    if (rc != DS_OK && !this->Reported.exchange(true))
+    {
+      vtkErrorMacro(<< ds_last_error_message());
+    }
+    return rc;
+  }
+
   bool Usable() const
   {
     return this->Model && this->Class >= 1 && this->Class <= ds_num_classes(this->Model);
@@ -168,6 +215,7 @@ private:
   DsModel* Owned = nullptr; // == Model when this object loaded it
   uint32_t Class = 1;
   double Time = 0.0;
+  std::atomic<bool> Reported{ false }; // a failure was reported for this model and time
 };
 
 #endif /* DYNASLICE_VTK_H */

@@ -11,6 +11,9 @@
 #    closed, vertices on f = 0, gradients right, enclosed volume within 2% of the project's own
 #    mesh (`dynaslice mesh`), which itself must be within 1% of the model's interior counted on
 #    a 256³ grid.
+# 5. The time rule through VTK: the adapter's test (dynaslice-ffi/tests/vtk) answers both edges of
+#    the time range and reports a time outside it once through vtkErrorMacro with NaN values; the
+#    example refuses such a time before sampling, writing nothing.
 set -euo pipefail
 
 CBINDGEN_VERSION=0.29.4
@@ -94,5 +97,21 @@ assert float(out["max gradient gap"]) < 0.05, "EvaluateGradient disagrees with d
 assert os.path.getsize(sys.argv[4]) > 10000, "the .vtp is suspiciously small"
 PY
 done
+
+step "VTK adapter: the time rule"
+cmake -S dynaslice-ffi/tests/vtk -B "$work/vtk-test" -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_PREFIX_PATH="$work/prefix" >"$work/cmake-test.log" || { cat "$work/cmake-test.log"; exit 1; }
+cmake --build "$work/vtk-test" -- -j2
+"$work/vtk-test/vtk_time_test" "$work/spheres.dsm"
+# The fixture's time range is [0, 1]: 1.5 is refused before sampling, and nothing is written.
+if "$work/vtk/dynaslice_surface" "$work/spheres.dsm" 1 1.5 32 "$work/late.vtp" 2>"$work/late.err"; then
+    echo "dynaslice_surface accepted t = 1.5, outside the model's time range [0, 1]" >&2
+    exit 1
+fi
+grep -q "t = 1.5 is outside the model's time range \[0, 1\]" "$work/late.err" ||
+    { cat "$work/late.err"; exit 1; }
+test ! -e "$work/late.vtp"
+# The upper edge is answered.
+"$work/vtk/dynaslice_surface" "$work/spheres.dsm" 1 1 32 "$work/edge.vtp" >/dev/null
 
 step "ci-ffi passed"

@@ -8,7 +8,11 @@
 //! - Functions returning `int` return `DS_OK` (0) or a negative `DS_E_*` code, and record a
 //!   human-readable detail for `ds_last_error_message` on the calling thread.
 //! - Every pointer is checked for NULL (and float/integer pointers for alignment) before use, and
-//!   nothing is read or written outside the buffers the arguments describe.
+//!   nothing is read or written outside the buffers the arguments describe. An output that
+//!   overlaps another buffer of the same call is refused with `DS_E_INVALID_ARGUMENT`.
+//! - Every call that takes a time refuses one outside the model's time range (NaN and ±∞
+//!   included) with `DS_E_TIME_OUT_OF_RANGE`, writing nothing: the rule of every DynaSlice front
+//!   end, the core's [`dynaslice_core::Domain::contains_time`], applied here and nowhere else.
 //! - Every entry point runs inside [`std::panic::catch_unwind`], so a Rust panic (a bug) becomes
 //!   `DS_E_INTERNAL` instead of unwinding into C, which would be undefined behaviour.
 //! - A [`DsModel`] is immutable once loaded, so any number of threads may query one model at
@@ -47,8 +51,14 @@ pub const DS_E_NO_SUCH_CLASS: c_int = -8;
 pub const DS_E_INVALID_ARGUMENT: c_int = -9;
 /// A bug in the library (a caught Rust panic); the message says where.
 pub const DS_E_INTERNAL: c_int = -10;
+/// A time outside the model's time range (`ds_time_range`, to a rounding slack of 10⁻⁴ of the
+/// range), or a NaN or infinite time. The network was fitted only inside the range and
+/// extrapolates freely outside it, so such a time is refused, never answered: the same rule (the
+/// core's `Domain::contains_time`) as `dynaslice query` and the Python package. Nothing is
+/// written.
+pub const DS_E_TIME_OUT_OF_RANGE: c_int = -11;
 
-/// The label `ds_label` and `ds_label_batch` report for a NaN or infinite query, where no
+/// The label `ds_label` and `ds_label_batch` report for a NaN or infinite point, where no
 /// class can be chosen.
 pub const DS_LABEL_UNDEFINED: u32 = u32::MAX;
 /// The largest number of classes K a model can have: an `sdf` array of this length fits any
@@ -274,6 +284,44 @@ unsafe fn point(xyz: *const f32) -> Result<[f32; 3], Failure> {
     Ok([p[0], p[1], p[2]])
 }
 
+/// The refusal of a time outside `model`'s range; `name` is how the caller called it (`t`,
+/// `t[7]`), `more` says how many other times of the call are outside too.
+fn time_refused(model: &Model, name: &str, t: f32, more: usize) -> Failure {
+    let (t0, t1) = model.domain().time_range();
+    let more = match more {
+        0 => String::new(),
+        1 => " (and 1 more time)".into(),
+        n => format!(" (and {n} more times)"),
+    };
+    Failure::new(
+        DS_E_TIME_OUT_OF_RANGE,
+        format!("{name} = {t} is outside the model's time range [{t0}, {t1}]{more}"),
+    )
+}
+
+/// Fails with `DS_E_TIME_OUT_OF_RANGE` unless `t` is in `model`'s time range by the core's rule
+/// ([`dynaslice_core::Domain::contains_time`]), which every front end applies.
+fn check_time(model: &Model, t: f32) -> Result<(), Failure> {
+    if model.domain().contains_time(t) {
+        Ok(())
+    } else {
+        Err(time_refused(model, "t", t, 0))
+    }
+}
+
+/// [`check_time`] for every time of a batch; the refusal names the first time outside.
+fn check_times(model: &Model, times: &[f32]) -> Result<(), Failure> {
+    let domain = model.domain();
+    let mut outside = times
+        .iter()
+        .enumerate()
+        .filter(|&(_, &t)| !domain.contains_time(t));
+    match outside.next() {
+        None => Ok(()),
+        Some((i, &t)) => Err(time_refused(model, &format!("t[{i}]"), t, outside.count())),
+    }
+}
+
 /// Writes `text` snprintf-style: at most `len - 1` bytes, cut at a UTF-8 character boundary, then
 /// a NUL. Returns the full length so a caller can retry with a bigger buffer.
 ///
@@ -322,7 +370,8 @@ unsafe fn load(
 /// `path` is a NUL-terminated path (bytes as given on POSIX, UTF-8 elsewhere) of a regular file:
 /// a FIFO, device or directory fails with `DS_E_IO` before it is opened (opening a FIFO would
 /// block). Returns 0, or a negative `DS_E_*` code with `*out` set to NULL (when `out` itself is
-/// not NULL). Free the model with `ds_model_free`.
+/// not NULL). `DS_E_INVALID_ARGUMENT` when `out` overlaps the string `path`. Free the model with
+/// `ds_model_free`.
 ///
 /// # Safety
 /// `path` must be NULL or a NUL-terminated string; `out` NULL or a writable `DsModel *`.
@@ -333,11 +382,17 @@ pub unsafe extern "C" fn ds_model_open(path: *const c_char, out: *mut *mut DsMod
             return Err(Failure::null("path"));
         }
         // SAFETY: non-NULL, NUL-terminated per this function's contract.
-        let path = unsafe { CStr::from_ptr(path) };
+        let c_path = unsafe { CStr::from_ptr(path) };
+        // `*out` was set to NULL before this reads the path: an overlapping `out` has put a NUL
+        // inside the string or at its start, so the span up to the NUL still meets it.
+        disjoint(&[
+            span("path", path, c_path.to_bytes_with_nul().len()),
+            span("out", out, 1),
+        ])?;
         #[cfg(unix)]
-        let path = <std::ffi::OsStr as std::os::unix::ffi::OsStrExt>::from_bytes(path.to_bytes());
+        let path = <std::ffi::OsStr as std::os::unix::ffi::OsStrExt>::from_bytes(c_path.to_bytes());
         #[cfg(not(unix))]
-        let path = path
+        let path = c_path
             .to_str()
             .map_err(|_| Failure::new(DS_E_INVALID_ARGUMENT, "`path` is not UTF-8"))?;
         let path = std::path::Path::new(path);
@@ -359,6 +414,7 @@ pub unsafe extern "C" fn ds_model_open(path: *const c_char, out: *mut *mut DsMod
 /// free them as soon as this returns) into a new model stored in `*out`.
 ///
 /// Returns 0, or a negative `DS_E_*` code with `*out` set to NULL (when `out` is not NULL).
+/// `DS_E_INVALID_ARGUMENT` when `out` overlaps the `len` bytes.
 ///
 /// # Safety
 /// `bytes` must be NULL or point to `len` readable bytes; `out` NULL or a writable `DsModel *`.
@@ -371,6 +427,7 @@ pub unsafe extern "C" fn ds_model_from_bytes(
     let copy = || {
         // SAFETY: per this function's contract.
         let bytes = unsafe { input(bytes, len, "bytes") }?;
+        disjoint(&[span("bytes", bytes.as_ptr(), len), span("out", out, 1)])?;
         if bytes.len() as u64 > format::max_file_size() {
             return Err(Failure::new(
                 DS_E_BAD_FORMAT,
@@ -468,7 +525,11 @@ pub unsafe extern "C" fn ds_metadata(model: *const DsModel, buf: *mut c_char, le
     })
 }
 
-/// Stores the time range the model was trained on, in world time units (usually seconds).
+/// Stores the time range the model was trained on, in world time units (usually seconds): the
+/// times the evaluation calls answer. A time outside it (beyond a rounding slack of 10⁻⁴ of the
+/// range), NaN or ±∞ is refused with `DS_E_TIME_OUT_OF_RANGE`; `ds_check_time` applies the same
+/// test. A static model (trained on one timestep) has a nominal range of one time unit from that
+/// timestep's time and the same answers at every time in it.
 ///
 /// # Safety
 /// `model` must be NULL or a live model; `t_min`, `t_max` NULL or writable floats.
@@ -483,6 +544,21 @@ pub unsafe extern "C" fn ds_time_range(
         let (lo, hi) = unsafe { model_ref(model) }?.model().domain().time_range();
         // SAFETY: per this function's contract.
         unsafe { write_range((t_min, "t_min"), (t_max, "t_max"), ([lo], [hi])) }
+    })
+}
+
+/// Returns 0 when the evaluation calls answer `model` at time `t`, else
+/// `DS_E_TIME_OUT_OF_RANGE` with a message naming the range (see `ds_time_range`): the exact test
+/// every call that takes a time applies, for hosts that check a time once before many queries.
+///
+/// # Safety
+/// `model` must be NULL or a live model.
+#[no_mangle]
+pub unsafe extern "C" fn ds_check_time(model: *const DsModel, t: f32) -> c_int {
+    guard("ds_check_time", || {
+        // SAFETY: per this function's contract.
+        check_time(unsafe { model_ref(model) }?.model(), t)?;
+        Ok(DS_OK)
     })
 }
 
@@ -549,9 +625,11 @@ unsafe fn point_query<'a>(
 
 /// Evaluates the K signed distances f(x, t) at world point `xyz` (3 floats) and world time `t`
 /// into `sdf[0..K]` (world units; negative inside class k). `sdf` holds `sdf_len >= K` floats;
-/// entries past K are left untouched. Every finite query gives finite distances, however far
-/// outside the model's domain; a NaN or infinite query gives NaN distances (and returns 0).
-/// `DS_E_INVALID_ARGUMENT` when `sdf` overlaps `xyz`.
+/// entries past K are left untouched. `t` must lie in the model's time range (`ds_time_range`):
+/// otherwise, NaN and ±∞ included, the call returns `DS_E_TIME_OUT_OF_RANGE` and writes nothing.
+/// Every finite point gives finite distances, however far outside the model's bounds; a NaN or
+/// infinite point gives NaN distances (and returns 0). `DS_E_INVALID_ARGUMENT` when `sdf`
+/// overlaps `xyz`.
 ///
 /// # Safety
 /// `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `sdf` NULL or
@@ -569,6 +647,7 @@ pub unsafe extern "C" fn ds_eval(
         let (model, x, k) = unsafe { point_query(model, xyz, sdf_len) }?;
         check_array(sdf, sdf_len, "sdf")?;
         disjoint(&[span("xyz", xyz, 3), span("sdf", sdf, sdf_len)])?;
+        check_time(model, t)?;
         // SAFETY: per this function's contract; the only slice of this call (`x` is a copy).
         let f = unsafe { output(sdf, sdf_len, "sdf") }?;
         model.eval(x, t, &mut f[..k]).map_err(Failure::model)?;
@@ -578,7 +657,7 @@ pub unsafe extern "C" fn ds_eval(
 
 /// Like `ds_eval`, and also stores the exact spatial gradients (world units): `grad` holds
 /// `3 * K` floats (K = `ds_num_classes`), and row k-1 (`grad[3(k-1)..3k]`) receives ∇ₓf^k for k
-/// in 1..=K.
+/// in 1..=K. Times, NaN and far points as in `ds_eval`.
 ///
 /// # Safety
 /// As `ds_eval`, and `grad` NULL or `3 * K` writable floats overlapping neither `xyz` nor `sdf`.
@@ -602,6 +681,7 @@ pub unsafe extern "C" fn ds_eval_grad(
             span("sdf", sdf, sdf_len),
             span("grad", grad, 3 * k),
         ])?;
+        check_time(model, t)?;
         // SAFETY: per this function's contract; disjoint checked above.
         let (f, g) = unsafe {
             (
@@ -618,7 +698,7 @@ pub unsafe extern "C" fn ds_eval_grad(
 
 /// Like `ds_eval_grad`, and also stores ∂f^k/∂t (world units per world time unit) in
 /// `dfdt[k-1]`; `dfdt` holds `sdf_len` floats. With ∇ₓf this gives the surface's normal velocity
-/// −(∂f/∂t)/‖∇ₓf‖.
+/// −(∂f/∂t)/‖∇ₓf‖. Times, NaN and far points as in `ds_eval`.
 ///
 /// # Safety
 /// As `ds_eval_grad`, and `dfdt` NULL or `sdf_len` writable floats overlapping no other buffer.
@@ -645,6 +725,7 @@ pub unsafe extern "C" fn ds_eval_jacobian(
             span("grad", grad, 3 * k),
             span("dfdt", dfdt, sdf_len),
         ])?;
+        check_time(model, t)?;
         // SAFETY: per this function's contract; disjoint checked above.
         let (f, g, d) = unsafe {
             (
@@ -661,7 +742,8 @@ pub unsafe extern "C" fn ds_eval_jacobian(
 }
 
 /// Stores the Eq. 11 label at (`xyz`, `t`) in `*label`: 0 for background, k when f^k is negative
-/// and the smallest, `DS_LABEL_UNDEFINED` for a NaN or infinite query (which still returns 0).
+/// and the smallest, `DS_LABEL_UNDEFINED` for a NaN or infinite point (which still returns 0).
+/// A time outside the model's range is refused as in `ds_eval` (`*label` is not written).
 ///
 /// # Safety
 /// `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `label` NULL or a
@@ -678,6 +760,7 @@ pub unsafe extern "C" fn ds_label(
         let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
         check_array(label, 1, "label")?;
         disjoint(&[span("xyz", xyz, 3), span("label", label, 1)])?;
+        check_time(model, t)?;
         // SAFETY: per this function's contract; disjoint from `xyz` (checked above).
         unsafe { output(label, 1, "label") }?[0] = model.label(x, t);
         Ok(DS_OK)
@@ -754,9 +837,12 @@ fn with_scratch<R>(body: impl FnOnce(&mut Scratch) -> R) -> Result<R, Failure> {
 
 /// The K distances at each of `n` points: point i is `xyz[3i..3i+3]` at time `t[i]`, and its
 /// answers go to `sdf[iK..(i+1)K]` (row-major, `n * K` floats). NaN or infinite points give NaN
-/// rows. Uses the SIMD batch kernels (AVX-512/AVX2 when the CPU has them), so results may differ
-/// from `ds_eval` in the last bits. Runs on the calling thread only; call it from several
-/// threads on disjoint ranges to use more cores. `n == 0` is a no-op (pointers still checked).
+/// rows. Every `t[i]` must lie in the model's time range (`ds_time_range`): when one does not
+/// (NaN and ±∞ included), the call returns `DS_E_TIME_OUT_OF_RANGE` and writes nothing at all,
+/// and the message names the first such i and how many more there are. Uses the SIMD batch
+/// kernels (AVX-512/AVX2 when the CPU has them), so results may differ from `ds_eval` in the
+/// last bits. Runs on the calling thread only; call it from several threads on disjoint ranges
+/// to use more cores. `n == 0` is a no-op (pointers still checked).
 ///
 /// # Safety
 /// `model` must be NULL or a live model; `xyz` NULL or `3n` readable floats; `t` NULL or `n`
@@ -776,13 +862,15 @@ pub unsafe extern "C" fn ds_eval_batch(
         let len = batch_len(model, n)?;
         // SAFETY: per this function's contract.
         let f = unsafe { batch_output(sdf, len, "sdf", n, xyz, t) }?;
+        check_times(model, times)?;
         with_scratch(|s| model.eval_batch(s, points, times, f))?.map_err(Failure::model)?;
         Ok(DS_OK)
     })
 }
 
 /// Like `ds_eval_batch`, and also stores ∇ₓf: `grad` holds `n * K * 3` floats, and
-/// `grad[3(iK + k-1)..3(iK + k)]` receives ∇ₓf^k at point i.
+/// `grad[3(iK + k-1)..3(iK + k)]` receives ∇ₓf^k at point i. A time outside the model's range
+/// is refused as in `ds_eval_batch`: neither `sdf` nor `grad` is written.
 ///
 /// # Safety
 /// As `ds_eval_batch`, and `grad` NULL or `3nK` writable floats overlapping no other buffer.
@@ -805,6 +893,7 @@ pub unsafe extern "C" fn ds_eval_grad_batch(
         check_array(grad.cast::<[f32; 3]>(), len, "grad")?;
         let outputs = [span("sdf", sdf, len), span("grad", grad, 3 * len)];
         batch_disjoint(&outputs, n, xyz, t)?;
+        check_times(model, times)?;
         // SAFETY: per this function's contract; disjoint from each other and the inputs.
         let (f, g) = unsafe {
             (
@@ -818,7 +907,8 @@ pub unsafe extern "C" fn ds_eval_grad_batch(
 }
 
 /// The Eq. 11 label of each of `n` points into `labels[0..n]` (see `ds_label`), with the batch
-/// kernels of `ds_eval_batch` (same threading and rounding notes).
+/// kernels of `ds_eval_batch` (same threading and rounding notes, and the same refusal of a
+/// time outside the model's range: nothing written).
 ///
 /// # Safety
 /// `model` must be NULL or a live model; `xyz` NULL or `3n` readable floats; `t` NULL or `n`
@@ -837,6 +927,7 @@ pub unsafe extern "C" fn ds_label_batch(
             unsafe { (model_ref(model)?.model(), batch_inputs(n, xyz, t)?) };
         // SAFETY: per this function's contract.
         let out = unsafe { batch_output(labels, n, "labels", n, xyz, t) }?;
+        check_times(model, times)?;
         with_scratch(|s| model.label_batch(s, points, times, out))?.map_err(Failure::model)?;
         Ok(DS_OK)
     })
@@ -857,6 +948,7 @@ pub extern "C" fn ds_error_string(code: c_int) -> *const c_char {
         DS_E_NO_SUCH_CLASS => c"no such class",
         DS_E_INVALID_ARGUMENT => c"invalid argument",
         DS_E_INTERNAL => c"internal error in the DynaSlice library",
+        DS_E_TIME_OUT_OF_RANGE => c"the time is outside the model's time range",
         _ => c"unknown error code",
     };
     text.as_ptr()
@@ -959,15 +1051,16 @@ mod tests {
         unsafe { ds_model_free(m) };
     }
 
-    /// Far finite queries are answered with finite values (they gave NaN at x = 1e9, t = 1e30).
+    /// Far finite points are answered with finite values (they gave NaN at x = 1e9), at both
+    /// ends of the time range.
     #[test]
-    fn far_finite_queries_give_finite_values() {
+    fn far_finite_points_give_finite_values() {
         let m = model();
         let (mut f, mut g, mut d) = ([0.0f32; 2], [0.0f32; 6], [0.0f32; 2]);
         for (x, t) in [
             ([1e9f32, 0.0, 0.0], 0.5f32),
-            ([0.0; 3], 1e30),
-            ([-3e38; 3], -3e38),
+            ([3e38; 3], 0.0),
+            ([-3e38; 3], 1.0),
         ] {
             let rc = unsafe {
                 ds_eval_jacobian(
@@ -988,6 +1081,143 @@ mod tests {
             );
         }
         unsafe { ds_model_free(m) };
+    }
+
+    /// Every call that takes a time refuses one outside the range (NaN and ±∞ too) with
+    /// DS_E_TIME_OUT_OF_RANGE, writes nothing, and answers both edges of the range.
+    #[test]
+    fn times_outside_the_range_are_refused_everywhere() {
+        let m = model();
+        // `random_siren` models span t in [0, 1]; the slack is 1e-4 of the range.
+        let (t0, t1) = (0.0f32, 1.0f32);
+        let x = [0.1f32, -0.2, 0.3];
+        let sentinel = 42.0f32;
+        let refused = [
+            t0 - 2e-4,
+            t1 + 2e-4,
+            -1.0,
+            5.0,
+            1e30,
+            f32::NAN,
+            f32::INFINITY,
+        ];
+        for t in refused {
+            assert_eq!(
+                unsafe { ds_check_time(m, t) },
+                DS_E_TIME_OUT_OF_RANGE,
+                "{t}"
+            );
+            let (mut f, mut g, mut d, mut l) = ([sentinel; 2], [sentinel; 6], [sentinel; 2], 7u32);
+            let (fp, gp, dp) = (f.as_mut_ptr(), g.as_mut_ptr(), d.as_mut_ptr());
+            let codes = unsafe {
+                [
+                    ds_eval(m, x.as_ptr(), t, fp, 2),
+                    ds_eval_grad(m, x.as_ptr(), t, fp, gp, 2),
+                    ds_eval_jacobian(m, x.as_ptr(), t, fp, gp, dp, 2),
+                    ds_label(m, x.as_ptr(), t, &mut l),
+                ]
+            };
+            assert_eq!(codes, [DS_E_TIME_OUT_OF_RANGE; 4], "{t}");
+            let all = f.iter().chain(&g).chain(&d);
+            assert!(
+                all.clone().all(|&v| v == sentinel) && l == 7,
+                "{t}: written"
+            );
+            assert!(
+                last_error().starts_with("ds_label: t = ")
+                    && last_error().contains("outside the model's time range [0, 1]"),
+                "{}",
+                last_error()
+            );
+        }
+        for t in [t0, t1, t0 - 5e-5, t1 + 5e-5, 0.5] {
+            assert_eq!(unsafe { ds_check_time(m, t) }, DS_OK, "{t}");
+            let (mut f, mut g, mut d, mut l) = ([0.0f32; 2], [0.0f32; 6], [0.0f32; 2], 7u32);
+            let (fp, gp, dp) = (f.as_mut_ptr(), g.as_mut_ptr(), d.as_mut_ptr());
+            let codes = unsafe {
+                [
+                    ds_eval(m, x.as_ptr(), t, fp, 2),
+                    ds_eval_grad(m, x.as_ptr(), t, fp, gp, 2),
+                    ds_eval_jacobian(m, x.as_ptr(), t, fp, gp, dp, 2),
+                    ds_label(m, x.as_ptr(), t, &mut l),
+                ]
+            };
+            assert_eq!(codes, [DS_OK; 4], "{t}");
+            assert!(f.iter().chain(&g).chain(&d).all(|v| v.is_finite()) && l <= 2);
+        }
+        assert_eq!(
+            unsafe { ds_check_time(core::ptr::null(), 0.5) },
+            DS_E_NULL_POINTER
+        );
+
+        // Batches: one bad time among good ones refuses the whole call, writing nothing.
+        let n = 5;
+        let xyz = [x; 5];
+        let mut times = [t0, 0.25, 0.5, 0.75, t1];
+        let xp = xyz.as_ptr().cast::<f32>();
+        let batch = |t: &[f32], f: &mut [f32], g: &mut [[f32; 3]], l: &mut [u32]| unsafe {
+            let (tp, fp, gp) = (t.as_ptr(), f.as_mut_ptr(), g.as_mut_ptr().cast::<f32>());
+            [
+                ds_eval_batch(m, n, xp, tp, fp),
+                ds_eval_grad_batch(m, n, xp, tp, fp, gp),
+                ds_label_batch(m, n, xp, tp, l.as_mut_ptr()),
+            ]
+        };
+        let (mut f, mut g, mut l) = ([0.0f32; 10], [[0.0f32; 3]; 10], [9u32; 5]);
+        assert_eq!(batch(&times, &mut f, &mut g, &mut l), [DS_OK; 3]);
+        for bad in [f32::NAN, t1 + 1.0] {
+            let (mut f, mut g, mut l) = ([sentinel; 10], [[sentinel; 3]; 10], [9u32; 5]);
+            times[1] = bad;
+            times[3] = -1.0;
+            let codes = batch(&times, &mut f, &mut g, &mut l);
+            assert_eq!(codes, [DS_E_TIME_OUT_OF_RANGE; 3]);
+            assert!(f.iter().chain(g.as_flattened()).all(|&v| v == sentinel) && l == [9; 5]);
+            let message = last_error();
+            assert!(
+                message.starts_with(&format!("ds_label_batch: t[1] = {bad} is outside"))
+                    && message.ends_with("(and 1 more time)"),
+                "{message}"
+            );
+        }
+        unsafe { ds_model_free(m) };
+    }
+
+    /// The loaders refuse an `out` overlapping their input, as the header documents.
+    #[test]
+    fn loader_outputs_over_the_input_are_refused() {
+        let bytes = format::ModelWriter::random_siren(&[16, 16], 2, 3).to_bytes();
+        let mut copy: Vec<u64> = vec![0; bytes.len().div_ceil(8)];
+        let raw = copy.as_mut_ptr().cast::<u8>();
+        unsafe { core::ptr::copy_nonoverlapping(bytes.as_ptr(), raw, bytes.len()) };
+        let out = unsafe { raw.add(64) }.cast::<*mut DsModel>();
+        assert_eq!(
+            unsafe { ds_model_from_bytes(raw, bytes.len(), out) },
+            DS_E_INVALID_ARGUMENT
+        );
+        assert!(unsafe { out.read() }.is_null());
+        assert!(
+            last_error().contains("`bytes` and `out` overlap"),
+            "{}",
+            last_error()
+        );
+        // `*out` is set to NULL first: each try needs a fresh copy of the path.
+        for at in [0, 1] {
+            let mut path = [0u64; 8];
+            let p = path.as_mut_ptr();
+            unsafe { core::ptr::copy_nonoverlapping(c"/no/such/model.dsm".as_ptr(), p.cast(), 19) };
+            let out = unsafe { p.add(at) }.cast::<*mut DsModel>();
+            assert_eq!(
+                unsafe { ds_model_open(p.cast(), out) },
+                DS_E_INVALID_ARGUMENT,
+                "{at}"
+            );
+            assert!(unsafe { out.read() }.is_null());
+            assert!(
+                last_error().contains("`path` and `out` overlap"),
+                "{}",
+                last_error()
+            );
+        }
     }
 
     /// A FIFO (whose open for reading blocks until a writer comes) and a device are refused

@@ -18,17 +18,23 @@ Loadable from any Python 3 (3D Slicer's Python console included)::
 The library is found through the DYNASLICE_LIBRARY environment variable (a path), else the
 system loader's search (an installed libdynaslice), else a workspace build next to this file
 (target/release, then target/debug). Every failure raises DynaSliceError with the C code and the
-library's detail message. See docs/c-api.md for units, ownership and threading.
+library's detail message. Every query at a time outside the model's `time_range` (NaN and
+infinities included) raises DynaSliceError with code E_TIME_OUT_OF_RANGE, as the C library
+refuses it. See docs/c-api.md for units, ownership, threading and the time rule.
 """
 
 import ctypes
 import ctypes.util
 import os
 
-__all__ = ["DynaSliceError", "Model", "LABEL_UNDEFINED", "load_library"]
+__all__ = ["DynaSliceError", "Model", "LABEL_UNDEFINED", "E_TIME_OUT_OF_RANGE", "load_library"]
 
-#: The label reported for NaN or infinite queries (DS_LABEL_UNDEFINED).
+#: The label reported for NaN or infinite points (DS_LABEL_UNDEFINED).
 LABEL_UNDEFINED = 0xFFFFFFFF
+
+#: DynaSliceError.code of a query at a time outside the model's time range
+#: (DS_E_TIME_OUT_OF_RANGE).
+E_TIME_OUT_OF_RANGE = -11
 
 _c_float_p = ctypes.POINTER(ctypes.c_float)
 _c_uint32_p = ctypes.POINTER(ctypes.c_uint32)
@@ -192,7 +198,8 @@ class Model:
 
     @property
     def time_range(self):
-        """(t_min, t_max) in world time units."""
+        """(t_min, t_max) in world time units: the times queries are answered at (to a rounding
+        slack of 1e-4 of the range); any other time raises E_TIME_OUT_OF_RANGE."""
         t0, t1 = ctypes.c_float(), ctypes.c_float()
         self._check(self._lib.ds_time_range(self._model(), ctypes.byref(t0), ctypes.byref(t1)))
         return t0.value, t1.value
@@ -213,7 +220,7 @@ class Model:
         return list(f), [tuple(g[3 * i : 3 * i + 3]) for i in range(k)]
 
     def label(self, xyz, t):
-        """Eq. 11 label: 0 background, k class k, LABEL_UNDEFINED for NaN/inf queries."""
+        """Eq. 11 label: 0 background, k class k, LABEL_UNDEFINED for NaN/inf points."""
         out = ctypes.c_uint32()
         point = (ctypes.c_float * 3)(*xyz)
         self._check(self._lib.ds_label(self._model(), point, t, ctypes.byref(out)))
@@ -229,7 +236,8 @@ class Model:
         return len(points), xyz, (ctypes.c_float * len(times))(*times)
 
     def eval_batch(self, points, times):
-        """Distances at many points: a list of K-value lists, one per (point, time)."""
+        """Distances at many points: a list of K-value lists, one per (point, time). One time
+        outside the range refuses the whole batch (E_TIME_OUT_OF_RANGE)."""
         n, xyz, t = self._batch_inputs(points, times)
         k = self.num_classes
         f = (ctypes.c_float * (n * k))()

@@ -4,6 +4,9 @@
 //
 // Usage: dynaslice_surface MODEL.dsm CLASS TIME RESOLUTION OUT.vtp
 //
+// TIME must lie in the model's time range (ds_time_range): any other is reported through VTK's
+// error macro and the program exits 1 before sampling, as the function never extrapolates.
+//
 // Prints the mesh's enclosed volume and area (vtkMassProperties), its boundary edges (0 for a
 // closed surface), the largest |f| at the mesh's vertices (through the batch path) and the
 // largest gap between EvaluateGradient and central differences of EvaluateFunction.
@@ -39,7 +42,11 @@ int main(int argc, char** argv)
     return 1;
   }
   function->SetClass(static_cast<uint32_t>(std::atoi(argv[2])));
-  function->SetTime(std::atof(argv[3]));
+  function->SetTime(std::atof(argv[3])); // reports a time outside the range (vtkErrorMacro)
+  if (function->CheckTime() != DS_OK)
+  {
+    return 1;
+  }
   const int res = std::atoi(argv[4]);
   float lo[3], hi[3];
   ds_bounds(function->GetModel(), lo, hi);

@@ -9,6 +9,8 @@
  * equality, "approx" (under valgrind, whose CPU lacks AVX-512) a relative 2e-4.
  * Broken variants of the model are written to SCRATCH_DIR to test every load error.
  */
+#define _POSIX_C_SOURCE 200809L /* mkfifo */
+
 #include "dynaslice.h"
 #include "expected.h"
 
@@ -16,6 +18,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 static int checks, failures;
 
@@ -125,7 +128,26 @@ static void test_load_errors(const char *model_path, const char *dir) {
     CHECK_RC(ds_model_open(missing, &m), DS_E_IO);
     CHECK(m == NULL);
     CHECK(last_error_contains("no-such-model.dsm"));
-    CHECK_RC(ds_model_open(dir, &m), DS_E_IO); /* a directory is not a readable file */
+    /* Regular files only: a directory, a device and a FIFO fail at once (opening a FIFO for
+     * reading would block until a writer came). */
+    const char *not_files[] = {dir, "/dev/null", NULL};
+    char fifo[4096];
+    snprintf(fifo, sizeof fifo, "%s/fifo.dsm", dir);
+    remove(fifo);
+    CHECK(mkfifo(fifo, 0600) == 0);
+    not_files[2] = fifo;
+    for (size_t i = 0; i < sizeof not_files / sizeof not_files[0]; i++) {
+        m = (DsModel *)&checks;
+        CHECK_RC(ds_model_open(not_files[i], &m), DS_E_IO);
+        CHECK(m == NULL && last_error_contains("not a regular file"));
+    }
+    remove(fifo);
+    /* `out` over the path's own bytes is refused (and still set to NULL). */
+    DsModel *path_and_out[2];
+    memset(path_and_out, 0, sizeof path_and_out);
+    memcpy(path_and_out, "/tmp/x.dsm", 11);
+    CHECK_RC(ds_model_open((const char *)path_and_out, &path_and_out[0]), DS_E_INVALID_ARGUMENT);
+    CHECK(path_and_out[0] == NULL && last_error_contains("`path` and `out` overlap"));
 
     check_open_fails(dir, "empty.dsm", bytes, 0, DS_E_TRUNCATED, "truncated");
     check_open_fails(dir, "header.dsm", bytes, 100, DS_E_TRUNCATED, "truncated");
@@ -145,6 +167,11 @@ static void test_load_errors(const char *model_path, const char *dir) {
     memcpy(bad, bytes, len);
     bad[len] = 0; /* one byte past the CRC trailer */
     check_open_fails(dir, "long.dsm", bad, len + 1, DS_E_BAD_FORMAT, "after the CRC");
+
+    /* `out` inside the bytes is refused. */
+    memcpy(bad, bytes, len);
+    CHECK_RC(ds_model_from_bytes(bad, len, (DsModel **)(void *)(bad + 64)), DS_E_INVALID_ARGUMENT);
+    CHECK(last_error_contains("`bytes` and `out` overlap"));
 
     /* Any alignment: the bytes are copied, and may be freed right after the call. */
     memcpy(bad + 1, bytes, len);
@@ -281,34 +308,104 @@ static void test_point_errors(const DsModel *m) {
     CHECK_RC(ds_label(m, NULL, 0.5f, &label), DS_E_NULL_POINTER);
     CHECK_RC(ds_label(m, x, 0.5f, NULL), DS_E_NULL_POINTER);
 
-    /* NaN and infinite queries are answered (not errors): NaN distances, undefined label. */
+    /* NaN and infinite points (at a time in range) are answered, not errors: NaN distances,
+     * undefined label. */
     const float nan_x[3] = {NAN, 0.0f, 0.0f};
     const float inf_x[3] = {0.0f, -INFINITY, 0.0f};
-    const struct {
-        const float *x;
-        float t;
-    } bad[] = {{nan_x, 0.5f}, {inf_x, 0.5f}, {x, NAN}, {x, INFINITY}};
+    const float *bad[] = {nan_x, inf_x};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        CHECK_RC(ds_eval_jacobian(m, bad[i].x, bad[i].t, f, g, d, REF_K), DS_OK);
+        CHECK_RC(ds_eval_jacobian(m, bad[i], 0.5f, f, g, d, REF_K), DS_OK);
         for (int k = 0; k < REF_K; k++) CHECK(isnan(f[k]) && isnan(d[k]));
         for (int j = 0; j < 3 * REF_K; j++) CHECK(isnan(g[j]));
         label = 0;
-        CHECK_RC(ds_label(m, bad[i].x, bad[i].t, &label), DS_OK);
+        CHECK_RC(ds_label(m, bad[i], 0.5f, &label), DS_OK);
         CHECK(label == DS_LABEL_UNDEFINED);
     }
 
-    /* Finite queries far outside the domain are answered with finite values and a label. */
-    const float far_x[3] = {1e9f, 0.0f, 0.0f};
-    const struct {
-        const float *x;
-        float t;
-    } far[] = {{far_x, 0.5f}, {x, 1e30f}, {x, -3.4e38f}};
-    for (size_t i = 0; i < sizeof far / sizeof far[0]; i++) {
-        CHECK_RC(ds_eval_jacobian(m, far[i].x, far[i].t, f, g, d, REF_K), DS_OK);
+    /* Finite points far outside the bounds are answered with finite values and a label. */
+    const float far_x[3][3] = {{1e9f, 0.0f, 0.0f}, {3.4e38f, -3.4e38f, 1e30f}};
+    for (size_t i = 0; i < 2; i++) {
+        CHECK_RC(ds_eval_jacobian(m, far_x[i], 0.5f, f, g, d, REF_K), DS_OK);
         for (int k = 0; k < REF_K; k++) CHECK(isfinite(f[k]) && isfinite(d[k]));
         for (int j = 0; j < 3 * REF_K; j++) CHECK(isfinite(g[j]));
-        CHECK_RC(ds_label(m, far[i].x, far[i].t, &label), DS_OK);
+        CHECK_RC(ds_label(m, far_x[i], 0.5f, &label), DS_OK);
         CHECK(label <= REF_K);
+    }
+}
+
+/* Every call taking a time answers on both edges of the model's time range and refuses a time
+ * outside it (NaN and infinities included) with DS_E_TIME_OUT_OF_RANGE, writing nothing. */
+static void test_time_range(const DsModel *m) {
+    float t0, t1;
+    CHECK_RC(ds_time_range(m, &t0, &t1), DS_OK);
+    const float span = t1 - t0;
+    const float x[3] = {10.0f, -5.0f, 3.0f};
+    float f[REF_K], g[3 * REF_K], d[REF_K];
+    uint32_t label;
+
+    /* The edges, and just inside the rounding slack of 1e-4 of the range. */
+    const float inside[] = {t0, t1, t0 - 5e-5f * span, t1 + 5e-5f * span, 0.5f * (t0 + t1)};
+    for (size_t i = 0; i < sizeof inside / sizeof inside[0]; i++) {
+        const float t = inside[i];
+        CHECK_RC(ds_check_time(m, t), DS_OK);
+        CHECK_RC(ds_eval(m, x, t, f, REF_K), DS_OK);
+        CHECK_RC(ds_eval_grad(m, x, t, f, g, REF_K), DS_OK);
+        CHECK_RC(ds_eval_jacobian(m, x, t, f, g, d, REF_K), DS_OK);
+        for (int k = 0; k < REF_K; k++) CHECK(isfinite(f[k]) && isfinite(d[k]));
+        label = 12345;
+        CHECK_RC(ds_label(m, x, t, &label), DS_OK);
+        CHECK(label <= REF_K);
+    }
+
+    const float outside[] = {t0 - 2e-4f * span, t1 + 2e-4f * span, t1 + span, -1e30f, 1e30f,
+                             -3.4e38f, NAN, INFINITY, -INFINITY};
+    for (size_t i = 0; i < sizeof outside / sizeof outside[0]; i++) {
+        const float t = outside[i];
+        CHECK_RC(ds_check_time(m, t), DS_E_TIME_OUT_OF_RANGE);
+        CHECK(last_error_contains("ds_check_time: t = "));
+        CHECK(last_error_contains("is outside the model's time range"));
+        for (int j = 0; j < 3 * REF_K; j++) g[j] = 42.0f;
+        for (int k = 0; k < REF_K; k++) f[k] = d[k] = 42.0f;
+        label = 12345;
+        CHECK_RC(ds_eval(m, x, t, f, REF_K), DS_E_TIME_OUT_OF_RANGE);
+        CHECK(last_error_contains("ds_eval: t = "));
+        CHECK_RC(ds_eval_grad(m, x, t, f, g, REF_K), DS_E_TIME_OUT_OF_RANGE);
+        CHECK_RC(ds_eval_jacobian(m, x, t, f, g, d, REF_K), DS_E_TIME_OUT_OF_RANGE);
+        CHECK_RC(ds_label(m, x, t, &label), DS_E_TIME_OUT_OF_RANGE);
+        for (int k = 0; k < REF_K; k++) CHECK(f[k] == 42.0f && d[k] == 42.0f);
+        for (int j = 0; j < 3 * REF_K; j++) CHECK(g[j] == 42.0f);
+        CHECK(label == 12345);
+    }
+    /* Pointer errors come before the time. */
+    CHECK_RC(ds_check_time(NULL, t0), DS_E_NULL_POINTER);
+    CHECK_RC(ds_eval(m, x, NAN, NULL, REF_K), DS_E_NULL_POINTER);
+
+    /* Batches: the edges are answered; one time outside refuses the whole call, nothing
+     * written, and the message names the first such point. */
+    enum { N = 6 };
+    float xyz[3 * N], t[N] = {t0, t1, t0, 0.5f * (t0 + t1), t1, t0};
+    float bf[N * REF_K], bg[3 * N * REF_K];
+    uint32_t bl[N];
+    for (int i = 0; i < 3 * N; i++) xyz[i] = x[i % 3];
+    CHECK_RC(ds_eval_batch(m, N, xyz, t, bf), DS_OK);
+    CHECK_RC(ds_eval_grad_batch(m, N, xyz, t, bf, bg), DS_OK);
+    CHECK_RC(ds_label_batch(m, N, xyz, t, bl), DS_OK);
+    for (int i = 0; i < N; i++) CHECK(bl[i] <= REF_K);
+    const float bad_times[] = {NAN, t1 + span, -INFINITY};
+    for (size_t b = 0; b < sizeof bad_times / sizeof bad_times[0]; b++) {
+        t[2] = bad_times[b];
+        t[4] = t0 - span;
+        for (int i = 0; i < N * REF_K; i++) bf[i] = 42.0f;
+        for (int i = 0; i < 3 * N * REF_K; i++) bg[i] = 42.0f;
+        for (int i = 0; i < N; i++) bl[i] = 42;
+        CHECK_RC(ds_eval_batch(m, N, xyz, t, bf), DS_E_TIME_OUT_OF_RANGE);
+        CHECK(last_error_contains("ds_eval_batch: t[2] = "));
+        CHECK(last_error_contains("(and 1 more time)"));
+        CHECK_RC(ds_eval_grad_batch(m, N, xyz, t, bf, bg), DS_E_TIME_OUT_OF_RANGE);
+        CHECK_RC(ds_label_batch(m, N, xyz, t, bl), DS_E_TIME_OUT_OF_RANGE);
+        for (int i = 0; i < N * REF_K; i++) CHECK(bf[i] == 42.0f);
+        for (int i = 0; i < 3 * N * REF_K; i++) CHECK(bg[i] == 42.0f);
+        for (int i = 0; i < N; i++) CHECK(bl[i] == 42);
     }
 }
 
@@ -346,9 +443,10 @@ static void test_batch(const DsModel *m, int exact) {
         }
     CHECK(f[REF_N * REF_K] == 42.0f && g[REF_N * REF_K * 3] == 42.0f && labels[REF_N] == 42);
 
-    /* One NaN point spoils only its own row. */
+    /* One NaN or infinite point spoils only its own row (a bad time refuses the whole call:
+     * test_time_range). */
     xyz[3 * 7 + 1] = NAN;
-    t[9] = INFINITY;
+    xyz[3 * 9] = INFINITY;
     CHECK_RC(ds_eval_batch(m, REF_N, xyz, t, f), DS_OK);
     CHECK_RC(ds_label_batch(m, REF_N, xyz, t, labels), DS_OK);
     for (int i = 0; i < REF_N; i++) {
@@ -379,11 +477,13 @@ static void test_error_strings(void) {
     const int codes[] = {DS_OK,          DS_E_NULL_POINTER,     DS_E_IO,
                          DS_E_TRUNCATED, DS_E_BAD_FORMAT,       DS_E_CHECKSUM,
                          DS_E_UNSUPPORTED, DS_E_BUFFER_TOO_SMALL, DS_E_NO_SUCH_CLASS,
-                         DS_E_INVALID_ARGUMENT, DS_E_INTERNAL};
+                         DS_E_INVALID_ARGUMENT, DS_E_INTERNAL, DS_E_TIME_OUT_OF_RANGE};
     const int n = (int)(sizeof codes / sizeof codes[0]);
     const char *unknown = ds_error_string(12345);
     CHECK(unknown != NULL && strcmp(unknown, "unknown error code") == 0);
-    CHECK(ds_error_string(-11) != NULL && strcmp(ds_error_string(-11), unknown) == 0);
+    CHECK(ds_error_string(-12) != NULL && strcmp(ds_error_string(-12), unknown) == 0);
+    /* The codes' values are part of the ABI: appended, never renumbered. */
+    CHECK(DS_E_INTERNAL == -10 && DS_E_TIME_OUT_OF_RANGE == -11);
     for (int i = 0; i < n; i++) {
         const char *s = ds_error_string(codes[i]);
         CHECK(s != NULL && *s != '\0' && strcmp(s, unknown) != 0);
@@ -410,6 +510,7 @@ int main(int argc, char **argv) {
         test_metadata(m);
         test_points(m);
         test_point_errors(m);
+        test_time_range(m);
         test_batch(m, strcmp(argv[3], "exact") == 0);
     }
     ds_model_free(m);

@@ -18,6 +18,33 @@ def f32(bits):
     return struct.unpack("<f", struct.pack("<I", bits))[0]
 
 
+def refused(call, *args):
+    """True when call(*args) raises DynaSliceError for a time outside the model's range."""
+    try:
+        call(*args)
+    except dynaslice.DynaSliceError as e:
+        assert e.code == dynaslice.E_TIME_OUT_OF_RANGE, (e.code, str(e))
+        assert "is outside the model's time range" in str(e), str(e)
+        return True
+    return False
+
+
+def check_time_rule(m, xyz):
+    """Both edges of the time range are answered; times outside it, NaN and infinities are
+    refused by every query, batches included."""
+    t0, t1 = m.time_range
+    span = t1 - t0
+    for t in (t0, t1):
+        assert all(math.isfinite(v) for v in m.eval(xyz, t))
+        assert m.label(xyz, t) <= m.num_classes
+    assert len(m.eval_batch([xyz, xyz], [t0, t1])) == 2
+    for t in (t0 - 0.01 * span, t1 + 0.01 * span, 1e30, -math.inf, math.inf, math.nan):
+        for call in (m.eval, m.eval_grad, m.label):
+            assert refused(call, xyz, t), (call.__name__, t)
+        for call in (m.eval_batch, m.label_batch):
+            assert refused(call, [xyz, xyz, xyz], [t0, t, t1]), (call.__name__, t)
+
+
 def main(model_path, expected_path):
     with open(expected_path) as f:
         expected = json.load(f)
@@ -49,6 +76,7 @@ def main(model_path, expected_path):
                 assert abs(got - f32(want)) <= 2e-4 * max(1.0, abs(f32(want))), (got, want)
         assert m.label_batch(points, times) == [c["label"] for c in expected["cases"]]
         assert m.label((math.nan, 0.0, 0.0), t0) == dynaslice.LABEL_UNDEFINED
+        check_time_rule(m, points[0])
         try:
             m.eval_batch(points, times[:-1])
         except ValueError:
