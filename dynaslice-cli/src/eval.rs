@@ -2,6 +2,7 @@
 //! mesh), on held-out slices, and its class volumes over time. Definitions: docs/metrics.md.
 
 use super::console::{errln, outln};
+use super::input::regular_file;
 use super::input::{self, InputArgs};
 use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
@@ -9,7 +10,6 @@ use super::options::{
     count, finite_f32, time_series, MAX_CHAMFER_SAMPLES, MAX_IOU_RESOLUTION, MAX_MESH_RESOLUTION,
     MAX_PIXELS, MAX_TIMES,
 };
-use super::output::{regular_file, Kind, Plan};
 use super::progress::Progress;
 use super::times::model_times;
 use anyhow::{anyhow, bail, Context, Result};
@@ -25,6 +25,7 @@ use dynaslice_metrics::volume::volume_curve_with;
 use dynaslice_metrics::Frames;
 use dynaslice_output::write_atomically;
 use dynaslice_output::write_via;
+use dynaslice_output::{Kind, Plan};
 use dynaslice_sequence::native;
 use dynaslice_synth::{BenchmarkOptions, Shape};
 use dynaslice_train::data_sampler::domain_for;

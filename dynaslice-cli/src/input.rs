@@ -1,14 +1,15 @@
 //! The input options every command that reads cross-sections shares, and reading them through
-//! [`dynaslice_data::input`].
+//! [`dynaslice_data::input`]; and the check of the other files a command reads itself (a model,
+//! `--like`, a reference mesh) by the readers' regular-file rule.
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::input_spec::InputSpec;
 use dynaslice_data::reslice::ResliceOptions;
 use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::Sequence;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::options::{count, positive_f64};
 
@@ -87,4 +88,14 @@ impl InputArgs {
 /// Reads the inputs and keeps the selected frames.
 pub fn read(args: &InputArgs) -> Result<Sequence> {
     Ok(args.spec().read()?)
+}
+
+/// `path` as an input: it exists and is a regular file (a FIFO would block the open, a device
+/// like /dev/zero would never end), checked by the readers' own rule
+/// ([`dynaslice_sequence::input_file::regular_file`]). `what` names it in the message (e.g. "model").
+pub fn regular_file(what: &str, path: &Path) -> Result<()> {
+    match dynaslice_sequence::input_file::regular_file(path) {
+        Ok(_) => Ok(()),
+        Err(e) => bail!("cannot read {what} {}: {}", path.display(), e.kind),
+    }
 }

@@ -3,13 +3,13 @@
 //! its colour tables, or as 3D Slicer segmentations and their sequence.
 
 use super::console::errln;
+use super::input::regular_file;
 use super::measure::units_and_frame;
 use super::memory::{self, MemoryArgs};
 use super::model::ModelFile;
 use super::options::{
     count, f32_in, finite_f64, positive_f64, time_series, MAX_SAFETY, MAX_THREADS, MAX_TIMES,
 };
-use super::output::{regular_file, Kind, Plan};
 use super::progress::Progress;
 use super::times::note;
 use anyhow::{bail, Context, Result};
@@ -17,6 +17,7 @@ use dynaslice_core::Model;
 use dynaslice_data::nifti::read_geometry;
 use dynaslice_data::TimeSeries;
 use dynaslice_metrics::motion::Units;
+use dynaslice_output::{Kind, Plan};
 use dynaslice_sequence::palette;
 use dynaslice_volume::{output_files, Evaluation, VoxelGrid, WriteOptions, DEFAULT_SAFETY};
 use std::path::{Path, PathBuf};

@@ -18,7 +18,6 @@ mod memory;
 mod mesh;
 mod model;
 mod options;
-mod output;
 mod picture;
 mod progress;
 mod query;

@@ -2,10 +2,10 @@
 //! definitions (clap_mangen), so they never disagree with `--help`.
 
 use super::console::{errln, out_bytes};
-use super::output::Plan;
 use anyhow::{Context, Result};
 use clap::CommandFactory;
 use dynaslice_output::write_atomically;
+use dynaslice_output::Plan;
 
 use std::path::PathBuf;
 

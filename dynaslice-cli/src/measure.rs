@@ -5,7 +5,6 @@
 use super::console::{errln, outln};
 use super::model::ModelFile;
 use super::options::{count, positive_f64, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
-use super::output::{Kind, Plan};
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::color_table::{table_paths, write_tables};
@@ -15,6 +14,7 @@ use dynaslice_mesh::io::{self as mesh_io, class_tag, Format, MeshInfo, Space};
 use dynaslice_metrics::itv::{itv_masks, itv_meshes};
 use dynaslice_metrics::motion::{round, Cycle, Frame, Motion, Units};
 use dynaslice_output::write_via;
+use dynaslice_output::{Kind, Plan};
 use dynaslice_sequence::palette;
 use dynaslice_volume::VoxelGrid;
 use serde_json::{json, Value};

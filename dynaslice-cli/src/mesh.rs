@@ -9,7 +9,6 @@ use super::options::{
     count, f32_in, finite_f32, time_series, MAX_MESH_RESOLUTION, MAX_NEWTON_STEPS, MAX_SAFETY,
     MAX_THREADS, MAX_TIMES,
 };
-use super::output::{Kind, Plan};
 use super::progress::Progress;
 use super::times::model_times;
 use anyhow::{anyhow, Context, Result};
@@ -18,6 +17,7 @@ use dynaslice_data::TimeSeries;
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_mesh::{self as mesh, Extraction, Options, Sampling, Surfaces, DEFAULT_SAFETY};
+use dynaslice_output::{Kind, Plan};
 use std::path::PathBuf;
 use std::time::Instant;
 

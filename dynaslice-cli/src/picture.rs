@@ -6,7 +6,6 @@ use super::input::{self, InputArgs};
 use super::mesh::surfaces_at;
 use super::model::ModelFile;
 use super::options::{count, finite_f64, MAX_MESH_RESOLUTION};
-use super::output::{Kind, Plan};
 use super::progress::Progress;
 use super::times::{model_times, note};
 use anyhow::{bail, Context, Result};
@@ -15,6 +14,7 @@ use dynaslice_figures::render3d::{self, Camera, RenderOptions, SurfacePanel};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_mesh::Options;
 use dynaslice_output::write_via;
+use dynaslice_output::{Kind, Plan};
 use std::path::PathBuf;
 
 /// Extra times one picture shows at most (each is a panel of the picture).

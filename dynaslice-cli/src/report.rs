@@ -7,7 +7,6 @@ use super::measure::{self, time_axis, Measurement};
 use super::mesh::surfaces_at;
 use super::model::ModelFile;
 use super::options::{count, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
-use super::output::{Kind, Plan};
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::TimeSeries;
@@ -15,6 +14,7 @@ use dynaslice_figures::plot::{class_chart, line_chart, Series};
 use dynaslice_figures::render3d::{self, RenderOptions, SurfacePanel};
 use dynaslice_metrics::motion::{round, Units};
 use dynaslice_output::write_via;
+use dynaslice_output::{Kind, Plan};
 use dynaslice_report::{Block, Cell, Document, Section, Table};
 use std::path::{Path, PathBuf};
 

@@ -4,9 +4,9 @@
 //! (docs/tps-import.md).
 
 use super::console::errln;
+use super::input::regular_file;
 use super::model::ModelFile;
 use super::options::{count, positive_f64, positive_f64_to, time_series, MAX_THREADS, MAX_TIMES};
-use super::output::{regular_file, Plan};
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::nifti::read_geometry;
@@ -20,6 +20,7 @@ use dynaslice_data::{manifest, FrameRange, Plane, Rect, TimeSeries};
 use dynaslice_geometry::Polygon;
 use dynaslice_mesh::planar::{contour_plane, PlanarOptions, PlaneField, Union, EVERYWHERE};
 use dynaslice_mesh::{LevelSets, Surfaces};
+use dynaslice_output::Plan;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

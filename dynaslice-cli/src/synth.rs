@@ -5,9 +5,9 @@ use super::memory::{self, MemoryArgs};
 use super::options::{
     count, MAX_PLANE_RESOLUTION, MAX_SYNTH_PLANES, MAX_SYNTH_TIMESTEPS, MAX_VOLUME_RESOLUTION,
 };
-use super::output::Plan;
 use super::progress::Progress;
 use anyhow::{bail, Context, Result};
+use dynaslice_output::Plan;
 use dynaslice_synth::{write_benchmark, BenchmarkOptions, Shape};
 use std::path::PathBuf;
 

@@ -10,12 +10,12 @@ use super::console::errln;
 use super::input::InputArgs;
 use super::loss::LossArgs;
 use super::options::{count, f32_in, non_negative_f64_to, positive_f32, positive_f64_to};
-use super::output::{Kind, Plan};
 use super::progress::Progress as Bar;
 use super::samples::SampleArgs;
 use anyhow::{anyhow, bail, Result};
 use dynaslice_core::format::MAX_WIDTH;
 use dynaslice_figures::plot::loss_curve;
+use dynaslice_output::{Kind, Plan};
 use dynaslice_train::fit::{fit, InputRecord, Observer, RunFiles};
 use dynaslice_train::journal::TERM_NAMES;
 use dynaslice_train::spec::{

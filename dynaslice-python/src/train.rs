@@ -8,6 +8,7 @@ use crate::model::PyModel;
 use crate::{data_error, DynasliceError};
 use dynaslice_data::input_spec::InputSpec;
 use dynaslice_figures::plot::loss_curve;
+use dynaslice_output::{Kind, Plan};
 use dynaslice_train::fit::{fit, InputRecord, Observer, RunFiles, Trained};
 use dynaslice_train::journal::TERM_NAMES;
 use dynaslice_train::spec::{SpecError, TrainSpec};
@@ -140,6 +141,19 @@ pub fn train(
     };
     // Every option first, before any file is read.
     spec.validate().map_err(|e| spec_error(&e))?;
+    let files = RunFiles::beside(&output);
+    // The command line's one output check and claims, held until the model is written: an
+    // existing model or loss log is replaced only with force=True, and a second run on the
+    // same output refuses instead of mixing its files with this one's.
+    let mut plan = Plan::new(inputs.iter().chain(&label_names), force).force_option("force=True");
+    let planned = (|| {
+        plan.file("output", &files.model, Kind::Model)?;
+        plan.beside(&files.csv)?;
+        plan.beside(&files.png)?;
+        plan.continued(&files.checkpoint)?;
+        plan.continued(&files.journal)
+    })();
+    planned.map_err(|e| DynasliceError::new_err(format!("{e:#}")))?;
     let input = InputSpec {
         inputs,
         frames: parsed("frames", frames.as_deref())?,
@@ -152,7 +166,6 @@ pub fn train(
         labels,
         pixel,
     };
-    let files = RunFiles::beside(&output);
     files.check_state(&spec).map_err(fit_error)?;
     let (seq, space) = py
         .detach(|| Ok((input.read()?, input.space()?)))
@@ -192,6 +205,7 @@ pub fn train(
         loss_curve(&files.png, &TERM_NAMES, &rows)
     })
     .map_err(|e| DynasliceError::new_err(format!("{e:#}")))?;
+    drop(plan);
     PyModel::from_model_bytes(trained.bytes, &output.display().to_string())
 }
 

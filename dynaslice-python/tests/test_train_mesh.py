@@ -165,3 +165,25 @@ def test_train_errors_and_interrupts(tmp_path):
         dynaslice.train(sections, out, steps=100_000, threads=1, progress=record_and_stop,
                         resume=True, **SMALL)
     assert first[0] > 1, "resumed at step %d" % first[0]
+
+
+def test_train_replaces_nothing_without_force(tmp_path):
+    sections = write_sphere_sections(tmp_path / "s.json", frames=2, planes=3)
+    out = tmp_path / "m.dsm"
+    out.write_bytes(b"a user's earlier model")
+    with pytest.raises(dynaslice.DynasliceError, match=r"m\.dsm: the file exists .*add force=True"):
+        dynaslice.train(sections, out, steps=2, threads=1, progress=False, **SMALL)
+    assert out.read_bytes() == b"a user's earlier model"
+    # The loss log beside it is an output too.
+    out.unlink()
+    (tmp_path / "m.dsm.loss.csv").write_text("kept\n")
+    with pytest.raises(dynaslice.DynasliceError, match=r"m\.dsm\.loss\.csv: the file exists"):
+        dynaslice.train(sections, out, steps=2, threads=1, progress=False, **SMALL)
+    assert not out.exists() and (tmp_path / "m.dsm.loss.csv").read_text() == "kept\n"
+    # The name says what is written.
+    with pytest.raises(dynaslice.DynasliceError, match=r"a model must be named \*\.dsm"):
+        dynaslice.train(sections, tmp_path / "m.json", steps=2, threads=1, progress=False,
+                        force=True, **SMALL)
+    model = dynaslice.train(sections, out, steps=2, threads=1, progress=False, force=True,
+                            **SMALL)
+    assert out.exists() and model.num_classes >= 1

@@ -385,7 +385,7 @@ def train(
     the model (``output + ".loss.csv"``, ``".loss.png"``). While training, the checkpoint is
     kept at ``output + ".ckpt"`` (removed when the run finishes): Ctrl-C stops training, saves
     it and raises KeyboardInterrupt; ``resume=True`` continues from it, ``force=True`` starts
-    afresh over it.
+    afresh over it. An existing model, loss log or curve is replaced only with ``force=True``.
     """
     if isinstance(inputs, (str, os.PathLike)):
         paths = [os.fspath(inputs)]

@@ -2,17 +2,17 @@
 //! written, the parent folder exists, never a directory where a file goes (nor a file where a
 //! directory goes), never one of the run's inputs (by file identity, so `./a.json`, a symlink or
 //! a hard link to an input are caught too), never the same path twice in one run, and never an
-//! existing file (a symlink, dangling or not, counts) unless `--force`: the main output, every
+//! existing file (a symlink, dangling or not, counts) unless forced (`--force`, Python's
+//! `force=True`): the main output, every
 //! file written beside it and every file of an output directory alike. Each output is claimed
-//! for the run ([`dynaslice_output::claim`]) before it is checked, so a second run on the
+//! for the run ([`claim`]) before it is checked, so a second run on the
 //! same output refuses at once and what is on disk always comes from one run; the claim also
-//! removes the temporaries of killed runs. Then [`dynaslice_output::write_via`] writes a
+//! removes the temporaries of killed runs. Then [`crate::write_via`] writes a
 //! library's output under a temporary name and renames it into place, so a failed run leaves
 //! neither a partial file nor a damaged old one.
 
-use super::console::errln;
+use crate::atomic::{claim, remove_stale_temporaries, Claim};
 use anyhow::{bail, Result};
-use dynaslice_output::Claim;
 use std::collections::HashSet;
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
@@ -76,6 +76,8 @@ pub struct Plan {
     inputs: Vec<PathBuf>,
     outputs: HashSet<PathBuf>,
     force: bool,
+    /// How the caller's user forces a replacement, for the messages.
+    force_option: &'static str,
     /// The claims on the outputs; a file inside a claimed directory output is covered by the
     /// directory's.
     claims: Vec<Claim>,
@@ -83,7 +85,8 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// A run reading `inputs`; `force`: existing files may be replaced.
+    /// A run reading `inputs`; `force`: existing files may be replaced. Messages tell the user
+    /// to add `--force`; [`Plan::force_option`] names another way (a keyword argument).
     pub fn new<P: AsRef<Path>>(inputs: impl IntoIterator<Item = P>, force: bool) -> Plan {
         Plan {
             inputs: inputs
@@ -92,9 +95,16 @@ impl Plan {
                 .collect(),
             outputs: HashSet::new(),
             force,
+            force_option: "--force",
             claims: Vec::new(),
             directories: Vec::new(),
         }
+    }
+
+    /// The plan with `words` (e.g. `force=True`) as what the messages tell the user to add.
+    pub fn force_option(mut self, words: &'static str) -> Plan {
+        self.force_option = words;
+        self
     }
 
     /// Checks the file output `path` given by `option` (e.g. `-o`) holding `kind`.
@@ -161,15 +171,15 @@ impl Plan {
     /// killed runs' temporaries the claim removed.
     fn claim(&mut self, path: &Path) -> Result<()> {
         let stale = if self.in_directory(path) {
-            dynaslice_output::remove_stale_temporaries(path)?
+            remove_stale_temporaries(path)?
         } else {
-            let claim = dynaslice_output::claim(path)?;
+            let claim = claim(path)?;
             let stale = claim.stale_removed().to_vec();
             self.claims.push(claim);
             stale
         };
         for file in stale {
-            errln!(
+            log::warn!(
                 "removed {}: a temporary file of a run that did not finish",
                 file.display()
             );
@@ -198,8 +208,9 @@ impl Plan {
             ""
         };
         bail!(
-            "{option} {}: the file exists{link} ({what}); add --force to replace it",
-            path.display()
+            "{option} {}: the file exists{link} ({what}); add {} to replace it",
+            path.display(),
+            self.force_option
         )
     }
 
@@ -278,16 +289,6 @@ fn parent_exists(option: &str, path: &Path) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// `path` as an input: it exists and is a regular file (a FIFO would block the open, a device
-/// like /dev/zero would never end), checked by the readers' own rule
-/// ([`dynaslice_sequence::input_file::regular_file`]). `what` names it in the message (e.g. "model").
-pub fn regular_file(what: &str, path: &Path) -> Result<()> {
-    match dynaslice_sequence::input_file::regular_file(path) {
-        Ok(_) => Ok(()),
-        Err(e) => bail!("cannot read {what} {}: {}", path.display(), e.kind),
-    }
 }
 
 #[cfg(test)]
