@@ -251,11 +251,14 @@ fn static_link(libs: &Path) -> Vec<String> {
     ]
 }
 
-/// gcc arguments that link the shared library and find it at run time.
+/// gcc arguments that link the shared library and find it at run time. An RPATH, not the
+/// newer RUNPATH: cargo's LD_LIBRARY_PATH lists `target/debug` too, which takes precedence over
+/// a RUNPATH, and an older `libdynaslice.so` there (from a `cargo build`) would be tested.
 fn shared_link(libs: &Path) -> Vec<String> {
     vec![
         format!("-L{}", libs.display()),
         "-ldynaslice".into(),
+        "-Wl,--disable-new-dtags".into(),
         format!("-Wl,-rpath,{}", libs.display()),
     ]
 }
