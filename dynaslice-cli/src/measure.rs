@@ -5,6 +5,7 @@
 use super::console::{errln, outln};
 use super::model::ModelFile;
 use super::options::{count, positive_f64, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
+use super::progress::Progress;
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::color_table::{table_paths, write_tables};
@@ -177,7 +178,9 @@ pub fn times_of(file: &ModelFile, times: Option<TimeSeries>) -> Result<Vec<f64>>
 /// Measures every class of `file` at `times` with meshes of `resolution` cells.
 pub fn measure(file: &ModelFile, times: &[f64], resolution: u32) -> Result<Measurement> {
     let model = file.model();
-    let motion = Motion::measure(&model, times, resolution)?;
+    let progress = Progress::new("measuring: time", times.len() as u64);
+    let motion = Motion::measure(&model, times, resolution, || progress.inc())?;
+    progress.finish();
     let (units, frame) = units_and_frame(&model);
     Ok(Measurement {
         motion,

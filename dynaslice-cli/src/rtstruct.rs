@@ -7,6 +7,7 @@ use super::console::errln;
 use super::input::regular_file;
 use super::model::ModelFile;
 use super::options::{count, positive_f64, positive_f64_to, time_series, MAX_THREADS, MAX_TIMES};
+use super::progress::Progress;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::nifti::read_geometry;
@@ -160,9 +161,16 @@ pub fn run(a: Args) -> Result<()> {
             EVERYWHERE,
         )
     };
+    // Each time (and the ITV) contours every plane: tens of seconds on a loaded machine.
+    let progress = Progress::new(
+        "contouring: phase",
+        (times.len() + usize::from(a.itv)) as u64,
+    );
     let itv = if a.itv {
         let union = Union(times.iter().map(|&t| level_sets(t)).collect());
-        Some(pool.install(|| contour_planes(&union, &planes, &options))?)
+        let itv = pool.install(|| contour_planes(&union, &planes, &options))?;
+        progress.inc();
+        Some(itv)
     } else {
         None
     };
@@ -194,13 +202,15 @@ pub fn run(a: Args) -> Result<()> {
         rtwrite::write(&path, &template, &series, &set)?;
         manifest_text += &format!("{} {}\n", t as f32, names[i]);
         let count: usize = set.rois.iter().map(|r| r.contours.len()).sum();
-        errln!(
+        progress.println(format!(
             "wrote {} (t = {}): {} ROIs, {count} contours",
             path.display(),
             t as f32,
             set.rois.len()
-        );
+        ));
+        progress.inc();
     }
+    progress.finish();
     dynaslice_output::write_atomically(&a.output.join(MANIFEST), manifest_text.as_bytes())?;
     errln!(
         "wrote {} ({} phases) in {:.1} s; {} planes, step {} mm, tolerance {} mm",

@@ -2,7 +2,7 @@
 //!
 //! An adapter over [`dynaslice_train::fit`]: the flags map onto a [`TrainSpec`] and an
 //! [`dynaslice_data::input_spec::InputSpec`] (the Python package's `dynaslice.train` maps its keywords onto the same two),
-//! the outputs are checked ([`super::output`]) and the existing checkpoint's fate decided
+//! the outputs are checked ([`dynaslice_output::Plan`]) and the existing checkpoint's fate decided
 //! ([`RunFiles::check_state`]) before the input is read, and the run is shown with a progress
 //! bar (or log lines off a terminal) and stopped cleanly by Ctrl-C.
 

@@ -101,8 +101,14 @@ pub struct Cycle {
 
 impl Motion {
     /// Measures every class of `model` at `times` (increasing, at least one) with meshes of
-    /// `resolution` cells along the longest axis of its domain.
-    pub fn measure(model: &Model, times: &[f64], resolution: u32) -> Result<Motion> {
+    /// `resolution` cells along the longest axis of its domain, calling `measured` after each
+    /// time (a caller's progress: each time meshes every class, seconds of work).
+    pub fn measure(
+        model: &Model,
+        times: &[f64],
+        resolution: u32,
+        mut measured: impl FnMut(),
+    ) -> Result<Motion> {
         ensure!(!times.is_empty(), "no times to measure at");
         ensure!(
             times.windows(2).all(|w| w[0] < w[1]),
@@ -110,7 +116,11 @@ impl Motion {
         );
         let shapes = times
             .iter()
-            .map(|&t| volume::class_shapes(model, t, resolution))
+            .map(|&t| {
+                let shapes = volume::class_shapes(model, t, resolution);
+                measured();
+                shapes
+            })
             .collect::<Result<_>>()?;
         Ok(Motion {
             classes: model.classes().map(|c| c.name.to_string()).collect(),
@@ -351,7 +361,7 @@ mod tests {
         let bytes = spheres::model(&[s], &[("tumour", 7)]);
         let model = Model::from_bytes(&bytes).unwrap();
         let times = [0.0, 0.5, 1.0, 1.5, 2.0];
-        let motion = Motion::measure(&model, &times, 96).unwrap();
+        let motion = Motion::measure(&model, &times, 96, || {}).unwrap();
         for (f, &t) in times.iter().enumerate() {
             let shape = motion.shapes[f][0];
             let want = s.world_volume(t);

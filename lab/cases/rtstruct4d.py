@@ -114,8 +114,11 @@ def truth(phase):
     return lab
 
 
-def write_rtstruct(path, polys):
-    """An RT Structure Set (Explicit VR Little Endian) of `polys` {name: [RAS polygons]}, in LPS."""
+def write_rtstruct(path, polys, study, frame):
+    """An RT Structure Set (Explicit VR Little Endian) of `polys` {name: [RAS polygons]}, in LPS,
+    in the study `study` and the Frame of Reference `frame` (one of each for all the phases of
+    a 4D CT: the phases are images of one scanner frame, and `dynaslice train` refuses phases
+    whose frames differ)."""
     meta = FileMetaDataset()
     meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.481.3"
     meta.MediaStorageSOPInstanceUID = generate_uid()
@@ -126,7 +129,7 @@ def write_rtstruct(path, polys):
     ds.Modality = "RTSTRUCT"
     ds.PatientName = "Phantom^4DCT"
     ds.StructureSetLabel = os.path.basename(path)
-    frame = generate_uid()
+    ds.StudyInstanceUID = study
     defined, contoured = [], []
     for number, name in enumerate(NAMES, start=1):
         s = Dataset()
@@ -157,9 +160,10 @@ def write_rtstruct(path, polys):
 def main(out):
     os.makedirs(out, exist_ok=True)
     lines = []
+    study, frame = generate_uid(), generate_uid()
     for p in CONTOURED:
         path = os.path.join(out, f"phase_{p}.dcm")
-        write_rtstruct(path, contours(p))
+        write_rtstruct(path, contours(p), study, frame)
         lines.append(f"{PHASE_SECONDS * p:g} phase_{p}.dcm")
     with open(os.path.join(out, "phases.seq"), "w") as f:
         f.write("\n".join(lines) + "\n")
