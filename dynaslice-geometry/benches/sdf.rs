@@ -11,7 +11,9 @@
 //! 25 000, 50 000 and 200 000 points, its index built and queried at the same 50 000 points
 //! (`one_contour/build/N`, `one_contour/50k_queries/N`); the summary lines give the cost per
 //! point of building and per sample of querying, and their growth from 25 000 points, measured
-//! in the same run. Linear building keeps the build cost per point flat.
+//! in the same run. Linear building keeps the build cost per point flat (it falls past 65 536
+//! cells, the grid's cap); queries on so dense a contour go to the tree, whose cost far from the
+//! contour grows about as √n (see `geometry::sdf`).
 
 use criterion::{Criterion, Throughput};
 use dynaslice_geometry::{Point2, Polygon, PolygonSdf};
@@ -120,7 +122,9 @@ fn one_contour(c: &mut Criterion, pts: &[Point2]) {
     let (n0, b0, q0, _) = rows[0];
     for &(n, b, q, worst) in &rows {
         println!(
-            "one contour of {n} points: build {:.1} ms ({:.0} ns per point, x{:.2} of {n0}              points' per-point cost); {:.0} ns per sample (x{:.2}); largest difference from              brute force {worst:.1e} mm",
+            "one contour of {n} points: build {:.1} ms ({:.0} ns per point, x{:.2} of {n0} \
+             points' per-point cost); {:.0} ns per sample (x{:.2}); largest difference from \
+             brute force {worst:.1e} mm",
             b * 1e3,
             b / n as f64 * 1e9,
             (b / n as f64) / (b0 / n0 as f64),
