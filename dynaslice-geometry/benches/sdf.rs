@@ -13,7 +13,7 @@
 //! point of building and per sample of querying, and their growth from 25 000 points, measured
 //! in the same run. Linear building keeps the build cost per point flat (it falls past 65 536
 //! cells, the grid's cap); queries on so dense a contour go to the tree, whose cost far from the
-//! contour grows about as √n (see `geometry::sdf`).
+//! contour grows about as √n (see `dynaslice_geometry::sdf`).
 
 use criterion::{Criterion, Throughput};
 use dynaslice_geometry::{Point2, Polygon, PolygonSdf};
