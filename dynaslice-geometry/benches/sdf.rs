@@ -6,6 +6,14 @@
 //! `cargo bench -p dynaslice-geometry --bench sdf` prints criterion's estimate per plane; the
 //! summary line gives the median in milliseconds and ns per sample, and the brute-force cost of
 //! the same queries (every segment visited) measured in the same run, for scale.
+//!
+//! Scaling (issue: a 200 000-point RTSTRUCT contour took 93 s to train on): one contour of
+//! 25 000, 50 000 and 200 000 points, its index built and queried at the same 50 000 points
+//! (`one_contour/build/N`, `one_contour/50k_queries/N`); the summary lines give the cost per
+//! point of building and per sample of querying, and their growth from 25 000 points, measured
+//! in the same run. Linear building keeps the build cost per point flat (it falls past 65 536
+//! cells, the grid's cap); queries on so dense a contour go to the tree, whose cost far from the
+//! contour grows about as √n (see `dynaslice_geometry::sdf`).
 
 use criterion::{Criterion, Throughput};
 use dynaslice_geometry::{Point2, Polygon, PolygonSdf};
@@ -59,6 +67,73 @@ fn brute(polys: &[Polygon], p: Point2) -> f64 {
     }
 }
 
+/// Median of the last (at most 15) recorded times.
+fn median(times: &mut [f64]) -> f64 {
+    let first = times.len().saturating_sub(15);
+    let last = &mut times[first..];
+    last.sort_by(f64::total_cmp);
+    last[last.len() / 2]
+}
+
+/// One contour of 25k, 50k and 200k points: build and query costs, and how they grow.
+fn one_contour(c: &mut Criterion, pts: &[Point2]) {
+    let region = Some(([-100.0, -100.0], [100.0, 100.0]));
+    let mut group = c.benchmark_group("one_contour");
+    let mut rows = Vec::new();
+    for n in [25_000, 50_000, 200_000] {
+        let polys = vec![blob([-10.0, 5.0], 60.0, n, true)];
+        let mut build = Vec::new();
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_function(format!("build/{n}"), |b| {
+            b.iter_custom(|iters| {
+                let start = Instant::now();
+                for _ in 0..iters {
+                    black_box(PolygonSdf::new(black_box(&polys), region));
+                }
+                let e = start.elapsed();
+                build.push(e.as_secs_f64() / iters as f64);
+                e
+            })
+        });
+        let sdf = PolygonSdf::new(&polys, region).expect("non-empty");
+        let mut query = Vec::new();
+        group.throughput(Throughput::Elements(pts.len() as u64));
+        group.bench_function(format!("50k_queries/{n}"), |b| {
+            b.iter_custom(|iters| {
+                let start = Instant::now();
+                for _ in 0..iters {
+                    let s: f64 = pts.iter().map(|&p| sdf.distance(black_box(p))).sum();
+                    black_box(s);
+                }
+                let e = start.elapsed();
+                query.push(e.as_secs_f64() / iters as f64);
+                e
+            })
+        });
+        // Spot check against brute force (every 500th point: brute force is O(n) a query).
+        let worst = pts
+            .iter()
+            .step_by(500)
+            .map(|&p| (brute(&polys, p) - sdf.distance(p)).abs())
+            .fold(0.0f64, f64::max);
+        rows.push((n, median(&mut build), median(&mut query), worst));
+    }
+    group.finish();
+    let (n0, b0, q0, _) = rows[0];
+    for &(n, b, q, worst) in &rows {
+        println!(
+            "one contour of {n} points: build {:.1} ms ({:.0} ns per point, x{:.2} of {n0} \
+             points' per-point cost); {:.0} ns per sample (x{:.2}); largest difference from \
+             brute force {worst:.1e} mm",
+            b * 1e3,
+            b / n as f64 * 1e9,
+            (b / n as f64) / (b0 / n0 as f64),
+            q / pts.len() as f64 * 1e9,
+            q / q0
+        );
+    }
+}
+
 fn main() {
     let polys = vec![
         blob([-40.0, 10.0], 35.0, 640, true),
@@ -103,6 +178,7 @@ fn main() {
         })
     });
     group.finish();
+    one_contour(&mut c, &pts);
     // Brute force over a tenth of the points (it is ~100x slower), scaled, and checked equal.
     let sdf = PolygonSdf::new(&polys, region).expect("non-empty");
     let start = Instant::now();
@@ -111,23 +187,17 @@ fn main() {
         worst = worst.max((brute(&polys, p) - sdf.distance(p)).abs());
     }
     let brute_per_plane = start.elapsed().as_secs_f64() * 10.0;
-    let median = |times: &mut Vec<f64>| {
-        let first = times.len().saturating_sub(15);
-        let last = &mut times[first..];
-        last.sort_by(f64::total_cmp);
-        last[last.len() / 2]
-    };
-    let (median, queries) = (median(&mut build_and_query), median(&mut query));
+    let (per_plane, queries) = (median(&mut build_and_query), median(&mut query));
     println!(
         "\nsdf2d: {} segments, {} samples per plane: median {:.2} ms per plane (index built and \
          queried; {:.2} ms of it querying, {:.0} ns per sample); brute force {:.0} ms per plane ({:.0}x slower); largest \
          difference {worst:.1e} mm",
         polys.iter().map(Vec::len).sum::<usize>(),
         pts.len(),
-        median * 1e3,
+        per_plane * 1e3,
         queries * 1e3,
         queries / pts.len() as f64 * 1e9,
         brute_per_plane * 1e3,
-        brute_per_plane / median
+        brute_per_plane / per_plane
     );
 }

@@ -5,21 +5,46 @@
 //! **f**ᵢ of the paper's data term (Eq. 7) and provides the in-plane normals **n**ᵢ of the
 //! orientation term (Eq. 6) for contour samples.
 //!
-//! Speed: the trainer resamples every step, so queries must cost well under a microsecond. At
-//! construction every grid cell gets the list of segments that can be nearest to *some* point of
-//! the cell (those within `d(centre) + half-diagonal` of the cell, a bound that holds for every
-//! point in it), sorted by their distance to the cell; a query walks its cell's list and stops at
-//! the first segment that cannot beat the best distance so far. Points outside the grid (the
-//! plane's region of interest grown to cover the contours) fall back to a scan of all segments.
+//! Speed: the trainer resamples every step, so queries must cost well under a microsecond, and
+//! building must stay linear (n log n at worst) in the number of points however dense one contour
+//! is (a 200 000-point RTSTRUCT contour once took 93 s). Two structures:
+//! - a tree of bounding boxes over runs of consecutive segments (`SegmentTree`): contour order
+//!   already keeps neighbours together, so it is built in O(n) without sorting and answers an
+//!   exact nearest-segment query by branch and bound in O(log n) near the contour (far from a
+//!   densely sampled smooth contour the distance is flat around the nearest point, and the
+//!   boxes leave O(√n) segments to check: 13 µs at 200 000 points, see the bench);
+//! - in front of it, a uniform grid of about one cell per segment (at most 256 per axis) where
+//!   each cell keeps the list of segments that can be nearest to *some* point of the cell (those
+//!   within `d(centre) + half-diagonal` of the cell, a bound that holds for every point in it),
+//!   sorted by their distance to the cell; a query walks its cell's list and stops at the first
+//!   segment that cannot beat the best distance so far. The lists are found with the tree. A cell
+//!   whose list would be longer than `MAX_CANDIDATES` (256: near a contour far denser than the
+//!   grid, where a list would grow with the point count) keeps none and is answered by the tree,
+//!   as are points outside the grid (the plane's region of interest grown to cover the
+//!   contours).
+//!
+//! Both paths return the least squared distance over all segments, ties going to the lower
+//! segment index, so a query's answer does not depend on which path served it.
 //!
 //! Sign: the polygons must be oriented by [`crate::polygon::orient_by_nesting`] (region on the
 //! left). The sign then comes from the nearest feature: the side of the nearest edge, or, when the
 //! nearest point is a vertex, the side of the sum of the two adjacent edge normals (the 2D
 //! angle-weighted pseudo-normal, Bærentzen & Aanæs 2005), which is exact for closest points.
 
-use crate::bucket_grid::BucketGrid;
 use crate::polygon::Polygon;
 use crate::Point2;
+
+/// Longest candidate list a grid cell keeps. With segments about as long as a cell (realistic
+/// contours: the bench's annotation needs 59 at the median, 157 at the 99th percentile) lists
+/// stay short; near a contour of many short segments a list would hold them all (thousands per
+/// cell at 200 000 points), so such a cell keeps none and is answered by the tree.
+const MAX_CANDIDATES: usize = 256;
+
+/// Segments per leaf of the [`SegmentTree`].
+const LEAF: usize = 8;
+
+/// Most cells per axis of the grid: bounds its memory (the tree serves what a coarse grid cannot).
+const MAX_CELLS_PER_AXIS: usize = 256;
 
 #[derive(Debug, Clone, Copy)]
 struct Seg {
@@ -52,8 +77,11 @@ impl Seg {
 #[derive(Debug, Clone)]
 pub struct PolygonSdf {
     segs: Vec<Seg>,
-    grid: BucketGrid,
-    /// `cand_start[c]..cand_start[c + 1]` indexes `cands` for grid cell `c`.
+    tree: SegmentTree,
+    grid: Grid,
+    /// `cand_start[c]..cand_start[c + 1]` indexes `cands` for grid cell `c`; empty for a cell
+    /// answered by the tree (a kept list is never empty: it holds the segment nearest to the
+    /// cell's centre).
     cand_start: Vec<u32>,
     /// (lower bound on the distance from the cell to the segment, segment index), ascending.
     cands: Vec<(f64, u32)>,
@@ -66,6 +94,7 @@ impl PolygonSdf {
     /// vertices, no crossings) and oriented by [`crate::polygon::orient_by_nesting`]. The grid
     /// covers `region` (e.g. the plane's region of interest) and the contours. `None` when
     /// `polys` is empty (the class is absent on the plane: there is no distance to give).
+    /// O(n log n) in the number of vertices n (see the [module docs](self)).
     pub fn new(polys: &[Polygon], region: Option<(Point2, Point2)>) -> Option<Self> {
         let mut segs = Vec::new();
         for poly in polys {
@@ -91,7 +120,11 @@ impl PolygonSdf {
                 });
             }
         }
-        let grid = BucketGrid::new(segs.iter().map(|s| (s.a, s.b())), region)?;
+        if segs.is_empty() {
+            return None;
+        }
+        let tree = SegmentTree::new(&segs);
+        let grid = Grid::new(tree.boxes[1], region, segs.len());
         let mut cum_len = Vec::with_capacity(segs.len());
         let mut acc = 0.0;
         for s in &segs {
@@ -100,6 +133,7 @@ impl PolygonSdf {
         }
         let mut sdf = PolygonSdf {
             segs,
+            tree,
             grid,
             cand_start: Vec::new(),
             cands: Vec::new(),
@@ -109,78 +143,32 @@ impl PolygonSdf {
         Some(sdf)
     }
 
+    /// Fills the cells' candidate lists: per cell, one nearest query and one range query on the
+    /// tree, the latter stopped after [`MAX_CANDIDATES`]: O(log n + MAX_CANDIDATES) a cell.
     fn build_candidates(&mut self) {
-        let (nx, ny) = self.grid.dims();
-        let h = self.grid.cell_size();
-        let mut stamp = vec![u32::MAX; self.segs.len()];
+        let (nx, ny) = (self.grid.nx, self.grid.ny);
         let mut list: Vec<(f64, u32)> = Vec::new();
         self.cand_start.reserve(nx * ny + 1);
         for j in 0..ny {
             for i in 0..nx {
-                let cell_id = (j * nx + i) as u32;
                 let (lo, hi) = self.grid.cell_rect(i, j);
                 let centre = [(lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5];
-                // Nearest distance from the centre, by rings of cells: after ring r every
-                // unvisited cell is at least (r + 0.5)·h from the centre.
-                let mut best = f64::INFINITY;
-                let max_ring = nx.max(ny);
-                for r in 0..=max_ring {
-                    self.for_ring(i, j, r, |s| {
-                        best = best.min(self.segs[s as usize].dist2(centre).0);
-                    });
-                    if best.sqrt() <= (r as f64 + 0.5) * h {
-                        break;
-                    }
-                }
                 // Every point of the cell is within `bound` of the centre's nearest segment, so
-                // only segments within `bound` of the cell can be nearest to a point in it. Cells
-                // in ring r are at least (r − 1)·h from this cell.
-                let bound = best.sqrt() + h * std::f64::consts::FRAC_1_SQRT_2;
-                let rings = ((bound / h).floor() as usize + 1).min(max_ring);
+                // only segments within `bound` of the cell can be nearest to a point in it.
+                let (best, _, _) = self.tree.nearest(&self.segs, centre);
+                let bound = best.sqrt() + self.grid.cell * std::f64::consts::FRAC_1_SQRT_2;
                 list.clear();
-                for r in 0..=rings {
-                    self.for_ring(i, j, r, |s| {
-                        if stamp[s as usize] != cell_id {
-                            stamp[s as usize] = cell_id;
-                            let seg = &self.segs[s as usize];
-                            let lb = rect_segment_distance(lo, hi, seg.a, seg.b());
-                            if lb <= bound {
-                                list.push((lb, s));
-                            }
-                        }
-                    });
-                }
-                list.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
                 self.cand_start.push(self.cands.len() as u32);
-                self.cands.extend_from_slice(&list);
+                if self
+                    .tree
+                    .near_rect(&self.segs, (lo, hi), bound, MAX_CANDIDATES, &mut list)
+                {
+                    list.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+                    self.cands.extend_from_slice(&list);
+                }
             }
         }
         self.cand_start.push(self.cands.len() as u32);
-    }
-
-    /// Calls `f` for every bucketed segment of the cells at Chebyshev distance `r` from (i, j).
-    fn for_ring(&self, i: usize, j: usize, r: usize, mut f: impl FnMut(u32)) {
-        let (nx, ny) = self.grid.dims();
-        let (i, j, r) = (i as isize, j as isize, r as isize);
-        let mut visit = |ci: isize, cj: isize| {
-            if ci >= 0 && cj >= 0 && (ci as usize) < nx && (cj as usize) < ny {
-                for &s in self.grid.bucket(cj as usize * nx + ci as usize) {
-                    f(s);
-                }
-            }
-        };
-        if r == 0 {
-            visit(i, j);
-            return;
-        }
-        for ci in i - r..=i + r {
-            visit(ci, j - r);
-            visit(ci, j + r);
-        }
-        for cj in j - r + 1..=j + r - 1 {
-            visit(i - r, cj);
-            visit(i + r, cj);
-        }
     }
 
     /// Signed distance from plane point `p`: negative inside the class's region.
@@ -206,34 +194,24 @@ impl PolygonSdf {
         }
     }
 
-    /// (squared distance, segment, projection parameter) of the nearest contour point.
+    /// (squared distance, segment, projection parameter) of the nearest contour point: from the
+    /// cell's candidate list where it has one, else from the tree.
     #[inline]
     fn nearest(&self, p: Point2) -> (f64, usize, f64) {
-        let mut best = (f64::INFINITY, 0usize, 0.0);
-        match self.grid.cell_of(p) {
-            Some((i, j)) => {
-                let c = j * self.grid.dims().0 + i;
-                let range = self.cand_start[c] as usize..self.cand_start[c + 1] as usize;
-                for &(lb, s) in &self.cands[range] {
+        if let Some(c) = self.grid.cell_of(p) {
+            let list = &self.cands[self.cand_start[c] as usize..self.cand_start[c + 1] as usize];
+            if !list.is_empty() {
+                let mut best = NONE;
+                for &(lb, s) in list {
                     if lb * lb > best.0 {
                         break;
                     }
-                    let (d2, t) = self.segs[s as usize].dist2(p);
-                    if d2 < best.0 {
-                        best = (d2, s as usize, t);
-                    }
+                    offer(&mut best, s as usize, self.segs[s as usize].dist2(p));
                 }
-            }
-            None => {
-                for (k, s) in self.segs.iter().enumerate() {
-                    let (d2, t) = s.dist2(p);
-                    if d2 < best.0 {
-                        best = (d2, k, t);
-                    }
-                }
+                return best;
             }
         }
-        best
+        self.tree.nearest(&self.segs, p)
     }
 
     /// Total contour length.
@@ -263,6 +241,229 @@ impl PolygonSdf {
             [seg.a[0] + t * seg.d[0], seg.a[1] + t * seg.d[1]],
             seg.normal,
         )
+    }
+}
+
+/// No segment yet: any finite distance beats it.
+const NONE: (f64, usize, f64) = (f64::INFINITY, usize::MAX, 0.0);
+
+/// Keeps in `best` the nearer of it and segment `s` at (squared distance, parameter), ties going
+/// to the lower index: the answer is then the same whichever order (list or tree) offers them.
+#[inline]
+fn offer(best: &mut (f64, usize, f64), s: usize, (d2, t): (f64, f64)) {
+    if d2 < best.0 || (d2 == best.0 && s < best.1) {
+        *best = (d2, s, t);
+    }
+}
+
+/// An axis-aligned box (lower corner, upper corner); empty when the lower corner is +∞.
+type Aabb = (Point2, Point2);
+
+const EMPTY: Aabb = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+
+fn union(a: Aabb, b: Aabb) -> Aabb {
+    (
+        [a.0[0].min(b.0[0]), a.0[1].min(b.0[1])],
+        [a.1[0].max(b.1[0]), a.1[1].max(b.1[1])],
+    )
+}
+
+/// Squared distance between two boxes (a point is the box (p, p)); +∞ to an empty box.
+#[inline]
+fn gap2(a: Aabb, b: Aabb) -> f64 {
+    let dx = (a.0[0] - b.1[0]).max(b.0[0] - a.1[0]).max(0.0);
+    let dy = (a.0[1] - b.1[1]).max(b.0[1] - a.1[1]).max(0.0);
+    dx * dx + dy * dy
+}
+
+/// Bounding boxes of runs of [`LEAF`] consecutive segments and of their unions: a complete binary
+/// tree in heap order (node 1 the root, node k's children 2k and 2k + 1, leaf k the node
+/// `leaves + k`, holding segments `LEAF·k..LEAF·(k + 1)`; leaves past the last segment are
+/// empty). Consecutive contour segments are neighbours in the plane, so the boxes are tight
+/// without any sorting: built in O(n); a branch-and-bound query visits O(log n) nodes near a
+/// contour (see the [module docs](self) for points far from a dense one).
+#[derive(Debug, Clone)]
+struct SegmentTree {
+    /// Number of leaves, a power of two.
+    leaves: usize,
+    /// The box of every node; index 0 is unused.
+    boxes: Vec<Aabb>,
+}
+
+/// Deepest a depth-first walk of a [`SegmentTree`] goes is log₂ of its leaf count (< 32 for
+/// `u32` segment indices); each level leaves at most one sibling pending on the stack.
+const STACK: usize = 64;
+
+impl SegmentTree {
+    fn new(segs: &[Seg]) -> Self {
+        let leaves = segs.len().div_ceil(LEAF).next_power_of_two();
+        let mut boxes = vec![EMPTY; 2 * leaves];
+        for (k, run) in segs.chunks(LEAF).enumerate() {
+            boxes[leaves + k] = run.iter().fold(EMPTY, |acc, s| {
+                let b = s.b();
+                union(
+                    acc,
+                    (
+                        [s.a[0].min(b[0]), s.a[1].min(b[1])],
+                        [s.a[0].max(b[0]), s.a[1].max(b[1])],
+                    ),
+                )
+            });
+        }
+        for node in (1..leaves).rev() {
+            boxes[node] = union(boxes[2 * node], boxes[2 * node + 1]);
+        }
+        SegmentTree { leaves, boxes }
+    }
+
+    /// The segments of leaf node `node`.
+    fn run(&self, node: usize, n: usize) -> std::ops::Range<usize> {
+        let first = (node - self.leaves) * LEAF;
+        first.min(n)..(first + LEAF).min(n)
+    }
+
+    /// (squared distance, segment, projection parameter) of the segment nearest to `p`: depth
+    /// first, nearer child first, skipping boxes farther than the best so far.
+    fn nearest(&self, segs: &[Seg], p: Point2) -> (f64, usize, f64) {
+        let mut best = NONE;
+        let mut stack = [(0.0, 0usize); STACK];
+        stack[0] = (0.0, 1);
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let (d2, node) = stack[top];
+            if d2 > best.0 {
+                continue;
+            }
+            if node >= self.leaves {
+                for s in self.run(node, segs.len()) {
+                    offer(&mut best, s, segs[s].dist2(p));
+                }
+                continue;
+            }
+            let (l, r) = (2 * node, 2 * node + 1);
+            let (dl, dr) = (gap2(self.boxes[l], (p, p)), gap2(self.boxes[r], (p, p)));
+            let (near, far) = if dl <= dr {
+                ((dl, l), (dr, r))
+            } else {
+                ((dr, r), (dl, l))
+            };
+            stack[top] = far;
+            stack[top + 1] = near;
+            top += 2;
+        }
+        best
+    }
+
+    /// Pushes onto `out` every segment whose distance to the rectangle `rect`
+    /// ([`rect_segment_distance`]) is at most `bound`, with that distance. Returns false, `out`
+    /// unfinished, as soon as it holds more than `limit`.
+    fn near_rect(
+        &self,
+        segs: &[Seg],
+        rect: Aabb,
+        bound: f64,
+        limit: usize,
+        out: &mut Vec<(f64, u32)>,
+    ) -> bool {
+        // Boxes and segment distances round differently: the slack keeps every segment that
+        // the exact test below accepts.
+        let reach2 = (bound * (1.0 + 1e-9)).powi(2);
+        let mut stack = [0usize; STACK];
+        stack[0] = 1;
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let node = stack[top];
+            if gap2(self.boxes[node], rect) > reach2 {
+                continue;
+            }
+            if node >= self.leaves {
+                for s in self.run(node, segs.len()) {
+                    let lb = rect_segment_distance(rect.0, rect.1, segs[s].a, segs[s].b());
+                    if lb <= bound {
+                        out.push((lb, s as u32));
+                        if out.len() > limit {
+                            return false;
+                        }
+                    }
+                }
+                continue;
+            }
+            stack[top] = 2 * node;
+            stack[top + 1] = 2 * node + 1;
+            top += 2;
+        }
+        true
+    }
+}
+
+/// The uniform grid of the candidate lists: square cells, about one per segment, over the
+/// contours' bounding box and the region, at most [`MAX_CELLS_PER_AXIS`] per axis.
+#[derive(Debug, Clone)]
+struct Grid {
+    origin: Point2,
+    cell: f64,
+    nx: usize,
+    ny: usize,
+}
+
+impl Grid {
+    /// A grid over `bounds` (finite) and `region`, for `n` segments.
+    fn new(bounds: Aabb, region: Option<Aabb>, n: usize) -> Self {
+        let (lo, hi) = union(bounds, region.unwrap_or(EMPTY));
+        let (w, h) = (hi[0] - lo[0], hi[1] - lo[1]);
+        let mut cell = if w > 0.0 && h > 0.0 {
+            (w * h / n as f64).sqrt()
+        } else {
+            w.max(h) / n as f64
+        };
+        if cell <= 0.0 || !cell.is_finite() {
+            cell = 1.0;
+        }
+        cell = cell
+            .max(w / MAX_CELLS_PER_AXIS as f64)
+            .max(h / MAX_CELLS_PER_AXIS as f64);
+        let nx = ((w / cell).ceil() as usize).clamp(1, MAX_CELLS_PER_AXIS);
+        let ny = ((h / cell).ceil() as usize).clamp(1, MAX_CELLS_PER_AXIS);
+        Grid {
+            origin: lo,
+            cell,
+            nx,
+            ny,
+        }
+    }
+
+    /// The index (j · nx + i) of the cell holding `p`, or `None` outside the grid.
+    #[inline]
+    fn cell_of(&self, p: Point2) -> Option<usize> {
+        let x = (p[0] - self.origin[0]) / self.cell;
+        let y = (p[1] - self.origin[1]) / self.cell;
+        if !(x >= 0.0 && y >= 0.0) {
+            return None;
+        }
+        let (i, j) = (x as usize, y as usize);
+        // The far border belongs to the last cell.
+        let i = if i == self.nx && x <= self.nx as f64 {
+            i - 1
+        } else {
+            i
+        };
+        let j = if j == self.ny && y <= self.ny as f64 {
+            j - 1
+        } else {
+            j
+        };
+        (i < self.nx && j < self.ny).then_some(j * self.nx + i)
+    }
+
+    /// Lower and upper corners of cell (i, j).
+    fn cell_rect(&self, i: usize, j: usize) -> Aabb {
+        let lo = [
+            self.origin[0] + i as f64 * self.cell,
+            self.origin[1] + j as f64 * self.cell,
+        ];
+        (lo, [lo[0] + self.cell, lo[1] + self.cell])
     }
 }
 
@@ -381,6 +582,77 @@ mod tests {
         assert!((sdf.distance(p)).abs() < 1e-12);
     }
 
+    /// Each edge of `poly` cut into `k` equal pieces: the same region with k times the points.
+    fn densify(poly: &Polygon, k: usize) -> Polygon {
+        let n = poly.len();
+        (0..n)
+            .flat_map(|i| {
+                let (a, b) = (poly[i], poly[(i + 1) % n]);
+                (0..k).map(move |j| {
+                    let t = j as f64 / k as f64;
+                    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn dense_contours_are_answered_by_the_tree_exactly() {
+        // 12 000 points on one ring in a wide region: cells far coarser than the segments, so
+        // most lists would hold hundreds of segments and the tree answers instead.
+        let radii: Vec<f64> = (0..400)
+            .map(|k| 20.0 + 3.0 * (k as f64 * 0.37).sin())
+            .collect();
+        let mut polys = vec![densify(&star([3.0, -2.0], &radii, 0.1), 30)];
+        orient_by_nesting(&mut polys);
+        let sdf = PolygonSdf::new(&polys, Some(([-60.0, -60.0], [60.0, 60.0]))).unwrap();
+        let cells = sdf.cand_start.len() - 1;
+        let by_tree = (0..cells)
+            .filter(|&c| sdf.cand_start[c] == sdf.cand_start[c + 1])
+            .count();
+        assert!(
+            by_tree > cells / 10,
+            "{by_tree} of {cells} cells answered by the tree"
+        );
+        for k in 0..3000 {
+            // Spread over and beyond the region (points outside the grid use the tree too).
+            let p = [
+                -70.0 + 140.0 * (k as f64 * 0.754_877_666_246_692_7).fract(),
+                -70.0 + 140.0 * (k as f64 * 0.569_840_290_998_053_3).fract(),
+            ];
+            let (got, want) = (sdf.distance(p), brute(&polys, p));
+            assert!(
+                (got.abs() - want.abs()).abs() < 1e-12,
+                "{got} vs {want} at {p:?}"
+            );
+            assert!(
+                want.abs() < 1e-9 || (got < 0.0) == (want < 0.0),
+                "sign at {p:?}"
+            );
+            // The two paths agree exactly: least squared distance, ties to the lower index.
+            assert_eq!(sdf.nearest(p), sdf.tree.nearest(&sdf.segs, p), "at {p:?}");
+        }
+    }
+
+    #[test]
+    fn realistic_contours_keep_lists() {
+        // Segments about as long as a cell (a planning system's contour in its field): all but
+        // a few cells keep their list, the fast path.
+        let radii: Vec<f64> = (0..640)
+            .map(|k| 35.0 + 5.0 * (k as f64 * 0.05).sin())
+            .collect();
+        let hole: Vec<f64> = radii[..128].iter().map(|r| r * 0.3).collect();
+        let mut polys = vec![star([0.0, 0.0], &radii, 0.0), star([0.0, 0.0], &hole, 0.5)];
+        orient_by_nesting(&mut polys);
+        let sdf = PolygonSdf::new(&polys, Some(([-100.0, -100.0], [100.0, 100.0]))).unwrap();
+        let cells = sdf.cand_start.len() - 1;
+        let kept = sdf.cand_start.windows(2).filter(|w| w[1] > w[0]).count();
+        assert!(
+            kept * 100 >= cells * 95,
+            "{kept} of {cells} cells keep a list"
+        );
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
         #[test]
@@ -389,17 +661,27 @@ mod tests {
             inner in prop::collection::vec(0.5f64..1.5, 3..20),
             other in prop::collection::vec(0.3f64..0.9, 3..12),
             phase in 0.0f64..6.3,
+            dense in 1usize..40,
+            wide in any::<bool>(),
             queries in prop::collection::vec((-5.0f64..9.0, -5.0f64..5.0), 200),
         ) {
-            // An outer star with a star hole, and a separate island.
-            let mut polys = vec![
+            // An outer star with a star hole, and a separate island; edges cut into `dense`
+            // pieces and a `wide` region make cells coarse against the segments, so that lists
+            // grow long and the tree answers.
+            let polys = vec![
                 star([0.0, 0.0], &outer, phase),
                 star([0.0, 0.0], &inner, -phase),
                 star([5.5, 0.0], &other, 0.0),
             ];
             prop_assume!(find_crossing(&polys).is_none());
+            let mut polys: Vec<Polygon> = polys.iter().map(|p| densify(p, dense)).collect();
             orient_by_nesting(&mut polys);
-            let sdf = PolygonSdf::new(&polys, Some(([-4.0, -4.0], [7.0, 4.0]))).unwrap();
+            let region = if wide {
+                ([-400.0, -400.0], [400.0, 400.0])
+            } else {
+                ([-4.0, -4.0], [7.0, 4.0])
+            };
+            let sdf = PolygonSdf::new(&polys, Some(region)).unwrap();
             for (x, y) in queries {
                 let got = sdf.distance([x, y]);
                 let want = brute(&polys, [x, y]);

@@ -496,7 +496,8 @@ fn separate_pinches(polys: &mut [Polygon]) {
             seen.entry(p.map(f64::to_bits)).or_default().push((pi, vi));
         }
     }
-    let mut cuts: Vec<(usize, usize, f64)> = Vec::new();
+    // Per polygon, the cut vertices and their cut lengths.
+    let mut cuts: Vec<Vec<(usize, f64)>> = vec![Vec::new(); polys.len()];
     for occurrences in seen.values().filter(|o| o.len() > 1) {
         let shortest = occurrences
             .iter()
@@ -508,27 +509,34 @@ fn separate_pinches(polys: &mut [Polygon]) {
                 len(poly[(vi + n - 1) % n]).min(len(poly[(vi + 1) % n]))
             })
             .fold(f64::INFINITY, f64::min);
-        cuts.extend(
-            occurrences
-                .iter()
-                .map(|&(pi, vi)| (pi, vi, PINCH_CUT * shortest)),
-        );
+        for &(pi, vi) in occurrences {
+            cuts[pi].push((vi, PINCH_CUT * shortest));
+        }
     }
-    // Highest vertex index first, so earlier indices stay valid while inserting.
-    cuts.sort_by(|a, b| (a.0, b.1).cmp(&(b.0, a.1)));
-    for (pi, vi, d) in cuts {
-        let poly = &mut polys[pi];
+    // Each cut polygon is rebuilt in one pass (inserting at every cut would cost O(n) a cut).
+    for (poly, mut cuts) in polys.iter_mut().zip(cuts) {
+        if cuts.is_empty() {
+            continue;
+        }
+        cuts.sort_by_key(|c| c.0);
         let n = poly.len();
-        let v = poly[vi];
-        let toward = |q: Point2| {
-            let len = (q[0] - v[0]).hypot(q[1] - v[1]);
-            [
-                v[0] + d * (q[0] - v[0]) / len,
-                v[1] + d * (q[1] - v[1]) / len,
-            ]
-        };
-        let (before, after) = (toward(poly[(vi + n - 1) % n]), toward(poly[(vi + 1) % n]));
-        poly[vi] = before;
-        poly.insert(vi + 1, after);
+        let mut cut = cuts.into_iter().peekable();
+        let mut out = Vec::with_capacity(n + cut.len());
+        for (vi, &v) in poly.iter().enumerate() {
+            let Some((_, d)) = cut.next_if(|c| c.0 == vi) else {
+                out.push(v);
+                continue;
+            };
+            let toward = |q: Point2| {
+                let len = (q[0] - v[0]).hypot(q[1] - v[1]);
+                [
+                    v[0] + d * (q[0] - v[0]) / len,
+                    v[1] + d * (q[1] - v[1]) / len,
+                ]
+            };
+            out.push(toward(poly[(vi + n - 1) % n]));
+            out.push(toward(poly[(vi + 1) % n]));
+        }
+        *poly = out;
     }
 }
