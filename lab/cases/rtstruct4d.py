@@ -114,8 +114,10 @@ def truth(phase):
     return lab
 
 
-def write_rtstruct(path, polys):
-    """An RT Structure Set (Explicit VR Little Endian) of `polys` {name: [RAS polygons]}, in LPS."""
+def write_rtstruct(path, polys, frame):
+    """An RT Structure Set (Explicit VR Little Endian) of `polys` {name: [RAS polygons]}, in LPS,
+    in the Frame of Reference `frame` (one for all phases: the phases of a 4D CT share the
+    patient frame, and `dynaslice` refuses to combine contours from different frames)."""
     meta = FileMetaDataset()
     meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.481.3"
     meta.MediaStorageSOPInstanceUID = generate_uid()
@@ -126,7 +128,6 @@ def write_rtstruct(path, polys):
     ds.Modality = "RTSTRUCT"
     ds.PatientName = "Phantom^4DCT"
     ds.StructureSetLabel = os.path.basename(path)
-    frame = generate_uid()
     defined, contoured = [], []
     for number, name in enumerate(NAMES, start=1):
         s = Dataset()
@@ -157,9 +158,10 @@ def write_rtstruct(path, polys):
 def main(out):
     os.makedirs(out, exist_ok=True)
     lines = []
+    frame = generate_uid()
     for p in CONTOURED:
         path = os.path.join(out, f"phase_{p}.dcm")
-        write_rtstruct(path, contours(p))
+        write_rtstruct(path, contours(p), frame)
         lines.append(f"{PHASE_SECONDS * p:g} phase_{p}.dcm")
     with open(os.path.join(out, "phases.seq"), "w") as f:
         f.write("\n".join(lines) + "\n")
@@ -170,6 +172,9 @@ def main(out):
     img.header.set_xyzt_units("mm", "sec")
     img.header["pixdim"][4] = PHASE_SECONDS
     nib.save(img, os.path.join(out, "truth.nii.gz"))
+    # the phases within the contoured time range (0..8), the grid for `dynaslice labels --like`
+    nine = nib.Nifti1Image(vol[..., : CONTOURED[-1] + 1], affine, img.header)
+    nib.save(nine, os.path.join(out, "truth9.nii.gz"))
     counts = {n: int((vol == i + 1).sum()) for i, n in enumerate(NAMES)}
     with open(os.path.join(out, "case.json"), "w") as f:
         json.dump({"names": NAMES, "contoured_phases": CONTOURED, "phase_seconds": PHASE_SECONDS,
