@@ -73,14 +73,14 @@ pub struct TrainOptions {
 
 impl Default for TrainOptions {
     /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
-    /// 3000 steps, ω₀ = 10, initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.2, α = 50, all threads,
+    /// 3000 steps, ω₀ = 20 ([`crate::spec::DEFAULT_OMEGA_0`]), initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.2, α = 50, all threads,
     /// no checkpoint; `omega_t_max` must be set from the data ([`crate::temporal_bound::temporal_bound`]).
     fn default() -> Self {
         TrainOptions {
             widths: vec![256; 4],
             steps: crate::spec::DEFAULT_STEPS,
             time_limit: None,
-            omega_0: 10.0,
+            omega_0: crate::spec::DEFAULT_OMEGA_0,
             offset: 0.2,
             seed: 0,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
