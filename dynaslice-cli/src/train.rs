@@ -82,12 +82,14 @@ pub struct Args {
     widths: Vec<u32>,
     /// ω₀: the first layer's spatial frequency scale over the normalised cube.
     ///
-    /// The default suits sparse planes and moving structures. Densely sliced static anatomy
+    /// The default suits sparse planes, moving structures, small structures beside large ones
+    /// (a 17 mm tumour beside the lungs, missed at 10) and thin parts (fingers); smooth shapes
+    /// cut by 15 planes may fit 0.01 IoU better at 10. Densely sliced static anatomy
     /// (many planes, several orientations) fits finer at 30: held-out 2D IoU 0.94 against
     /// 0.87–0.91 on the TotalSegmentator CT. At 30 add `--warmup-steps 100`: without it,
     /// models measured there collapsed into spurious insides in some seeds. 15-plane `.csl`
     /// inputs and the moving synthetic chambers lose at 30 (docs/training.md, "When to change
-    /// ω₀"; the measurements are in lab/notes/training.md).
+    /// ω₀"; the measurements are in lab/notes/training.md and lab/notes/2026-12-04-omega.md).
     #[arg(long, default_value_t = TrainOptions::default().omega_0,
           value_parser = positive_f32(MAX_OMEGA_0), allow_negative_numbers = true)]
     omega0: f32,

@@ -204,7 +204,8 @@ pub fn fit(
     let counts = spec.counts();
     observer.note(&format!(
         "{}: {} classes, {} frames, {} planes; domain centre {:?}, half-width {:.4}, time {}..{}; \
-         ω_t^max {omega_t_max}; building the sampling index (the exact in-plane distances)",
+         ω_t^max {omega_t_max}; ω₀ {}; building the sampling index (the exact in-plane \
+         distances)",
         input.description,
         classes.len(),
         seq.frames().len(),
@@ -213,6 +214,7 @@ pub fn fit(
         domain.scale[0],
         domain.time_origin,
         domain.time_origin + domain.time_span,
+        options.omega_0,
     ));
     let mut sampler = DataSampler::new(seq, domain, counts);
     if let Some(w) = &spec.class_weights {

@@ -11,8 +11,8 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
 /// SIREN's ω₀ (Sitzmann et al. 2020), the paper's initialisation: used by the gradient checks
-/// and the step benchmark. The trainer's default is ω₀ = 10 (`TrainOptions::default`, measured in
-/// lab/notes/training.md).
+/// and the step benchmark. The trainer's default is ω₀ = 20 (`spec::DEFAULT_OMEGA_0`, measured in
+/// lab/notes/2026-12-04-omega.md).
 pub const OMEGA_0: f32 = 30.0;
 
 /// Layout, parameters and the temporal band limit of a network being trained.

@@ -37,6 +37,11 @@ pub const MAX_OFFSET: f32 = 100.0;
 pub const DEFAULT_STEPS: u64 = 3000;
 /// Minutes between checkpoints without `checkpoint_minutes`.
 pub const DEFAULT_CHECKPOINT_MINUTES: f64 = 2.0;
+/// ω₀ without `omega0`. 20 rather than 10: at 10 a 17 mm tumour beside the lungs is missed, a
+/// kidney of the TotalSegmentator map grows 10× past the image at 300 steps and a hand's thin
+/// fingers are lost; at 20 all three come out, the thin tube gains 0.03 IoU, and OReX's smooth
+/// `.csl` shapes move by −0.010 to +0.008 (lab/notes/2026-12-04-omega.md).
+pub const DEFAULT_OMEGA_0: f32 = 20.0;
 
 /// An option's allowed values: a closed or half-open interval of reals, or whole numbers.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -171,7 +176,7 @@ pub struct TrainSpec {
     pub no_orientation: bool,
     /// Widths of the sine layers (default 4 × 256).
     pub widths: Option<Vec<u32>>,
-    /// ω₀, the first layer's spatial frequency scale (default 10).
+    /// ω₀, the first layer's spatial frequency scale (default [`DEFAULT_OMEGA_0`]).
     pub omega0: Option<f32>,
     /// Initial value of every channel, normalised units (default 0.2).
     pub init_offset: Option<f32>,
@@ -374,7 +379,7 @@ impl TrainSpec {
             widths: self.widths.clone().unwrap_or(d.widths),
             steps: self.schedule_steps(),
             time_limit: self.minutes.map(|m| Duration::from_secs_f64(m * 60.0)),
-            omega_0: self.omega0.unwrap_or(d.omega_0),
+            omega_0: self.omega0.unwrap_or(DEFAULT_OMEGA_0),
             offset: self.init_offset.unwrap_or(d.offset),
             seed: self.seed.unwrap_or(d.seed),
             threads: self.threads.unwrap_or(d.threads).max(1),
@@ -396,14 +401,14 @@ impl TrainSpec {
 
 impl Default for TrainOptions {
     /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
-    /// 3000 steps, ω₀ = 10, initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.2, α = 50, all threads,
+    /// 3000 steps, ω₀ = 20 ([`DEFAULT_OMEGA_0`]), initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.2, α = 50, all threads,
     /// no checkpoint; `omega_t_max` must be set from the data ([`crate::temporal_bound::temporal_bound`]).
     fn default() -> Self {
         TrainOptions {
             widths: vec![256; 4],
             steps: DEFAULT_STEPS,
             time_limit: None,
-            omega_0: 10.0,
+            omega_0: DEFAULT_OMEGA_0,
             offset: 0.2,
             seed: 0,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -484,7 +489,7 @@ mod tests {
         assert_eq!(o.steps, DEFAULT_STEPS);
         assert_eq!(
             (o.lr, o.lr_final, o.omega_0, o.offset),
-            (d.lr, d.lr / 10.0, d.omega_0, d.offset)
+            (d.lr, d.lr / 10.0, DEFAULT_OMEGA_0, d.offset)
         );
         assert_eq!(o.checkpoint_every, Duration::from_secs(120));
         assert_eq!(s.counts(), SampleCounts::default());

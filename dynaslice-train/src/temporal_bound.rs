@@ -30,8 +30,9 @@ pub fn annotated_spacing(seq: &Sequence, domain: &Domain) -> Option<f64> {
 /// The default c of ω_t^max = c·π/Δt (Eq. 4). Measured on the chambers (lab/notes/training.md, "The
 /// temporal factor c"): at SIREN's ω₀ = 30, where ω_t starts in ±7.5, c = 0.2 (ω_t^max ≈ 5.7 with
 /// 10 annotated frames) beats both a looser bound (c = 0.3, which no longer binds) and tighter
-/// ones (0.1, 0.05 cut the motion). At the trainer's default ω₀ = 10, ω_t starts in ±2.5, below
-/// this bound, so it is a guard there.
+/// ones (0.1, 0.05 cut the motion). At the trainer's default ω₀ = 20, ω_t starts in ±5, below
+/// this bound with 10 annotated frames, so it is a guard there; with 5 (the 4D CT case of
+/// lab/cases/rtstruct4d.py, ω_t^max ≈ 2.5) it binds.
 pub const DEFAULT_TEMPORAL_FACTOR: f32 = 0.2;
 
 /// ω_t^max of Eq. 4 for `seq` in `domain`: c·π/Δt with `factor` c; `f32::INFINITY` when

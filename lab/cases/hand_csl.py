@@ -5,6 +5,14 @@ mesh (marching cubes of the same implicit at 0.25 mm, binary STL), in the coordi
 contours, like the shared `*_reference.stl`.
 
     python3 lab/cases/hand_csl.py OUT_DIR    # writes OUT_DIR/hand_thin.csl, hand_thin_reference.stl
+    python3 lab/cases/hand_csl.py grid OUT_DIR              # OUT_DIR/hand_thin_truth.nii.gz
+    python3 lab/cases/hand_csl.py score TRUTH.nii.gz PRED.nii.gz
+
+`grid` writes the exact shape on a 0.5 mm grid over the box plus 2 mm (nibabel, RAS: the
+`.csl` coordinates are the model's world frame) as the grid for `dynaslice labels MODEL --like
+TRUTH -o PRED`; `score` prints the 3D IoU of label 1, the volume ratio, and the IoU of the
+fingers alone (the voxels farther than 2 mm past the palm's ellipsoid, so the palm's bulk
+cannot hide lost fingers).
 """
 import os
 import struct
@@ -68,6 +76,11 @@ def section(axis, offset, step=0.05):
         if len(c) < 4 or np.allclose(c[0], c[-1]) is False:
             continue
         c = c[:-1][:: max(1, len(c) // 400)]  # at most ~400 vertices per contour
+        # no two consecutive vertices alike as written (5 decimals): a zero-length edge is a
+        # degenerate contour that `dynaslice` refuses
+        q = np.round(gu[0] + c[:, 0] * step, 5), np.round(gv[0] + c[:, 1] * step, 5)
+        keep = (q[0] != np.roll(q[0], 1)) | (q[1] != np.roll(q[1], 1))
+        c = c[keep]
         pts = np.zeros((len(c), 3))
         pts[:, u] = gu[0] + c[:, 0] * step
         pts[:, v] = gv[0] + c[:, 1] * step
@@ -117,7 +130,50 @@ def write_reference(path, step=0.25):
             f.write(struct.pack("<12fH", *(-nrm), *a, *c, *b, 0))
 
 
+GRID = 0.5
+
+
+def grid_points():
+    axes = [np.arange(LO[a] - 2, HI[a] + 2, GRID) for a in range(3)]
+    return axes, np.stack(np.meshgrid(*axes, indexing="ij"), -1)
+
+
+def write_grid(path):
+    import nibabel as nib
+
+    axes, p = grid_points()
+    affine = np.diag([GRID, GRID, GRID, 1.0])
+    affine[:3, 3] = [a[0] for a in axes]
+    nib.save(nib.Nifti1Image((inside(p) <= 0).astype(np.uint8), affine), path)
+
+
+def score(truth_path, pred_path):
+    import json
+
+    import nibabel as nib
+
+    t = np.asarray(nib.load(truth_path).dataobj) == 1
+    pr = np.asarray(nib.load(pred_path).dataobj) == 1
+    if t.shape != pr.shape:
+        sys.exit(f"{pred_path}: shape {pr.shape}, the truth's is {t.shape}")
+    _, p = grid_points()
+    c, a = PALM
+    fingers = np.sqrt((((p - c) / (a + 2.0)) ** 2).sum(-1)) > 1.0
+    iou = lambda m: float((t & pr & m).sum() / max(((t | pr) & m).sum(), 1))  # noqa: E731
+    print(json.dumps({
+        "iou": round(iou(np.ones_like(t)), 4),
+        "iou_fingers": round(iou(fingers), 4),
+        "volume_ratio": round(float(pr.sum() / t.sum()), 3),
+    }))
+
+
 if __name__ == "__main__":
+    if sys.argv[1] == "grid":
+        write_grid(os.path.join(sys.argv[2], "hand_thin_truth.nii.gz"))
+        sys.exit()
+    if sys.argv[1] == "score":
+        score(sys.argv[2], sys.argv[3])
+        sys.exit()
     out = sys.argv[1]
     os.makedirs(out, exist_ok=True)
     write_csl(os.path.join(out, "hand_thin.csl"))

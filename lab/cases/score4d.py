@@ -6,6 +6,10 @@ contoured phase for the others.
     python3 lab/cases/score4d.py CASE_DIR --itk            # the ITK baseline's scores
     python3 lab/cases/score4d.py CASE_DIR PRED.nii.gz      # a prediction's scores
 
+A prediction may hold the first phases only: `dynaslice labels` answers within the model's
+time range, which ends at the last contoured phase (8), so predictions are made on
+CASE_DIR/truth9.nii.gz (phases 0-8, written by rtstruct4d.py) and scored on those phases.
+
 Prints one JSON line per source: per class the IoU pooled over all phases ("iou"), over the
 contoured phases ("iou_contoured"), the worst phase ("iou_min"), the predicted / true volume
 ("volume_ratio") and the connected components (26-connected, per phase) farther than 5 mm from
@@ -78,7 +82,7 @@ def score(pred, truth):
         union = (P | T).sum(axis=(0, 1, 2))
         cont = list(case.CONTOURED)
         far = []
-        for q in range(case.PHASES):
+        for q in range(P.shape[-1]):
             pts = np.concatenate([to_index(poly) for p in bracketing(q)
                                   for poly in case.contours(p)[name]])
             tree = cKDTree(pts)
@@ -107,9 +111,13 @@ def main():
     else:
         src, img = sys.argv[2], nib.load(sys.argv[2])
         pred = np.asarray(img.dataobj)
-        if pred.shape != truth.shape:
+        if pred.shape[:3] != truth.shape[:3] or pred.shape[-1] > truth.shape[-1]:
             sys.exit(f"{src}: shape {pred.shape}, the truth's is {truth.shape}")
-    print(json.dumps({"source": src, "classes": score(pred, truth)}))
+        # `dynaslice labels` stays within the model's time range, which ends at the last
+        # contoured phase: score the phases the prediction has (made with --like truth9.nii.gz)
+        truth = truth[..., : pred.shape[-1]]
+    print(json.dumps({"source": src, "phases": int(truth.shape[-1]),
+                      "classes": score(pred, truth)}))
 
 
 if __name__ == "__main__":

@@ -51,6 +51,7 @@ struct ScheduleArgs {
 fn schedule(a: ScheduleArgs) -> anyhow::Result<()> {
     let protocol = experiments::Protocol {
         minutes: a.minutes,
+        steps: None,
         spec: dynaslice_train::spec::TrainSpec {
             threads: Some(a.threads.max(1)),
             ..Default::default()

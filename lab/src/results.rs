@@ -39,6 +39,11 @@ pub struct Args {
     /// (every model of a table then runs exactly those steps).
     #[arg(long, default_value_t = 5.0)]
     minutes: f64,
+    /// Steps of every model instead of calibrating `--minutes` (the multi-class table's
+    /// equal-time independent models still take 1/K of `--minutes` each): a comparison of
+    /// settings that the machine's load cannot tilt.
+    #[arg(long)]
+    steps: Option<u64>,
     /// Shapes of the synthetic table (blob, tube, torus, chambers).
     #[arg(
         long,
@@ -188,6 +193,7 @@ pub fn run(a: Args) -> Result<()> {
     let wants = |t: &str| a.tables.iter().any(|x| x == t);
     let protocol = Protocol {
         minutes: a.minutes,
+        steps: a.steps,
         spec: a.loss.apply(TrainSpec {
             widths: Some(a.widths.clone()),
             threads: Some(a.threads.max(1)),

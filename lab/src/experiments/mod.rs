@@ -29,6 +29,9 @@ use dynaslice_train::trainer::TrainOptions;
 pub struct Protocol {
     /// Training wall time per run, turned into a step count per input by [`Protocol::steps_for`].
     pub minutes: f64,
+    /// Steps per run instead of calibrating `minutes` ([`Protocol::steps_for`]): a comparison of
+    /// settings that the machine's load cannot tilt.
+    pub steps: Option<u64>,
     /// Base training options (steps, time, temporal control and orientation are set per run).
     pub spec: TrainSpec,
 }
@@ -54,8 +57,20 @@ impl Protocol {
     /// Steps of the full method on `seq` that take `self.minutes` on this machine now, from a
     /// short run's median step time ([`fit::Trained::median_step_seconds`], the measure the
     /// trainer's own `--minutes` plan uses).
+    /// With `steps` set, those steps.
     pub fn steps_for(&self, seq: &Sequence) -> Result<u64> {
-        self.steps_for_minutes(seq, self.minutes)
+        match self.steps {
+            Some(steps) => Ok(steps),
+            None => self.steps_for_minutes(seq, self.minutes),
+        }
+    }
+
+    /// How each run's steps were chosen, for the tables' headers.
+    pub fn budget(&self) -> String {
+        match self.steps {
+            Some(steps) => format!("{steps} steps (`--steps`)"),
+            None => format!("the steps calibrated to take {} min", self.minutes),
+        }
     }
 
     /// Steps of the full method on `seq` that take `minutes` on this machine now, measured as

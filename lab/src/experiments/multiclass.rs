@@ -199,7 +199,7 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
         s,
         "{} ({k} classes, {} frames, {planes} planes). Withheld: frames {}, planes {} (within \
          each frame); 2D IoU of the Eq. 11 labels on the withheld slices at {} pixels along each \
-         region's longer side. The shared model trained {} steps ({} min calibrated on it, {} \
+         region's longer side. The shared model trained {} steps ({} on it, {} \
          threads); the steps of each model are in the table; mean of the {} seed(s) {:?}.\n",
         case.source,
         case.seq.frames().len(),
@@ -209,7 +209,7 @@ pub fn markdown(case: &Case, runs: &[SharingRun], p: &Protocol) -> String {
         runs_of(runs, Sharing::Shared)
             .first()
             .map_or(0, |r| r.steps),
-        p.minutes,
+        p.budget(),
         p.options().threads,
         seeds.len(),
         seeds,
@@ -329,6 +329,7 @@ mod tests {
         let c = case();
         let p = Protocol {
             minutes: 0.0,
+            steps: None,
             spec: TrainSpec {
                 widths: Some(vec![16, 16]),
                 threads: Some(1),
@@ -371,6 +372,7 @@ mod tests {
         let c = case();
         let p = Protocol {
             minutes: 1.0,
+            steps: None,
             spec: TrainSpec {
                 temporal_factor: Some(0.2),
                 ..TrainSpec::default()

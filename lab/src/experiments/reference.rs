@@ -116,12 +116,12 @@ pub fn markdown(runs: &[CaseRun], p: &Protocol, r: Resolution) -> String {
         writeln!(
         s,
         "OReX's sliced meshes (`../shared/data/csl/`, one timestep, one class), each trained for \
-         {} min ({} threads). CD×10⁴ between {} area-uniform samples of the model's class-1 mesh \
+         {} ({} threads). CD×10⁴ between {} area-uniform samples of the model's class-1 mesh \
          ({} cells along the longest axis) and of the reference mesh, normalised by the \
          reference's bounding-box diagonal; 3D IoU of the labels against the reference's \
          interior (ray parity) on a grid of {} cells along the longest axis of the reference's \
          box grown by 5 % of its diagonal.\n",
-        p.minutes, p.options().threads, r.samples, r.mesh, r.iou
+        p.budget(), p.options().threads, r.samples, r.mesh, r.iou
     );
     let _ = writeln!(s, "| input | planes | CD×10⁴ | IoU | steps | train time |");
     let _ = writeln!(s, "|---|---|---|---|---|---|");

@@ -157,7 +157,7 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
         s,
         "Each shape of `dynaslice synth` sliced at every 4th of 37 frames (15 + 15 planes, \
          35 + 35 for the thin tube); every variant trained for the same number of steps, \
-         calibrated per shape to take {} min on {} threads (network {:?}, {} contour + {} plane \
+         {} per shape, on {} threads (network {:?}, {} contour + {} plane \
          samples per class and {} space-time samples per step; ω_t^max = {}·π/Δt with temporal \
          control). Scores at all 37 frames: 3D IoU \
          of the Eq. 11 labels against the exact shapes on a {}³ grid over [−1, 1]³, and CD×10⁴ \
@@ -166,7 +166,7 @@ pub fn markdown(runs: &[Run], p: &Protocol, resolution: Resolution) -> String {
          averaged over classes, then frames, then the {} seed(s) {:?} of initialisation and \
          sampling (ω₀ = {}, initial offset {}; λ_n = {} where the variant has orientation, \
          λ_d = {}, λ_r = {}, α = {}).\n",
-        p.minutes,
+        p.budget(),
         o.threads,
         o.widths,
         counts.contour_per_class,
