@@ -140,7 +140,8 @@ import pydicom
 for path in sys.argv[1:]:
     ds = pydicom.dcmread(path)
     ref = ds.ReferencedFrameOfReferenceSequence[0]
-    types = sorted({i.ContourGeometricType for c in ds.ROIContourSequence for i in c.ContourSequence})
+    types = sorted({i.ContourGeometricType for c in ds.ROIContourSequence
+                    for i in c.get("ContourSequence", [])})
     print("FILE", ds.SOPClassUID, ds.SOPInstanceUID, ds.SeriesInstanceUID, ds.StudyInstanceUID,
           ds.Modality, ref.FrameOfReferenceUID,
           ref.RTReferencedStudySequence[0].RTReferencedSeriesSequence[0].SeriesInstanceUID,
@@ -148,9 +149,9 @@ for path in sys.argv[1:]:
     names = {r.ROINumber: r.ROIName for r in ds.StructureSetROISequence}
     for c in ds.ROIContourSequence:
         images = sorted({i.ContourImageSequence[0].ReferencedSOPInstanceUID
-                         for i in c.ContourSequence if "ContourImageSequence" in i})
+                         for i in c.get("ContourSequence", []) if "ContourImageSequence" in i})
         print("ROI", c.ReferencedROINumber, names[c.ReferencedROINumber].replace(" ", "_"),
-              ",".join(str(int(v)) for v in c.ROIDisplayColor), len(c.ContourSequence),
+              ",".join(str(int(v)) for v in c.ROIDisplayColor), len(c.get("ContourSequence", [])),
               ",".join(images) or "-")
 "#;
 
@@ -189,10 +190,17 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
     let (study, frame, ct_series, ct) = (uids[0], uids[1], uids[2], &uids[3..]);
     let model = dir.path().join("lungs.dsm");
     succeeded(
-        &train_command(&dir.path().join("phases.seq"), &model, &["--steps", "300"])
-            .current_dir(dir.path())
-            .output()
-            .unwrap(),
+        // ω₀ = 10: this test's network (2 layers of 32, 256 samples a set, 300 steps) at the
+        // default 20 loses the 28 mm GTV at one phase, and the test is of the writer, which
+        // needs every structure contoured (the product's 4×256 network keeps it, issue 30).
+        &train_command(
+            &dir.path().join("phases.seq"),
+            &model,
+            &["--steps", "300", "--omega0", "10"],
+        )
+        .current_dir(dir.path())
+        .output()
+        .unwrap(),
     );
     // Without --times: the times of the training manifest the model records.
     let out = dir.path().join("rs");

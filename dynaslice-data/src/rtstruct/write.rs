@@ -520,9 +520,18 @@ fn encode(
             ),
             text(tags::REFERENCED_ROI_NUMBER, VR::IS, &roi.number.to_string()),
         ]);
-        // An ROI with no contour at this time keeps its empty Contour Sequence (Type 3 may be
-        // present and empty), so that readers still see the structure defined.
-        c.put(seq(tags::CONTOUR_SEQUENCE, items));
+        // An ROI with no contour at this time has no Contour Sequence: the attribute is Type 3,
+        // but present it needs at least one item (dciodvfy: "1-n Required by Module
+        // definition"). The ROI Contour item itself stays, so readers still see the structure.
+        if items.is_empty() {
+            log::warn!(
+                "{} (ROI {}): no contour at this time; written without contours",
+                roi.name,
+                roi.number
+            );
+        } else {
+            c.put(seq(tags::CONTOUR_SEQUENCE, items));
+        }
         contoured.push(c);
         observed.push(InMemDicomObject::from_element_iter([
             text(tags::OBSERVATION_NUMBER, VR::IS, &(i + 1).to_string()),
