@@ -1092,6 +1092,17 @@ mod tests {
         let (t0, t1) = (0.0f32, 1.0f32);
         let x = [0.1f32, -0.2, 0.3];
         let sentinel = 42.0f32;
+        // The four single-point calls at time t, into f (K = 2), g, d and the label l.
+        let every_point_call =
+            |t: f32, f: &mut [f32; 2], g: &mut [f32; 6], d: &mut [f32; 2], l: &mut u32| unsafe {
+                let (fp, gp, dp) = (f.as_mut_ptr(), g.as_mut_ptr(), d.as_mut_ptr());
+                [
+                    ds_eval(m, x.as_ptr(), t, fp, 2),
+                    ds_eval_grad(m, x.as_ptr(), t, fp, gp, 2),
+                    ds_eval_jacobian(m, x.as_ptr(), t, fp, gp, dp, 2),
+                    ds_label(m, x.as_ptr(), t, l),
+                ]
+            };
         let refused = [
             t0 - 2e-4,
             t1 + 2e-4,
@@ -1108,15 +1119,7 @@ mod tests {
                 "{t}"
             );
             let (mut f, mut g, mut d, mut l) = ([sentinel; 2], [sentinel; 6], [sentinel; 2], 7u32);
-            let (fp, gp, dp) = (f.as_mut_ptr(), g.as_mut_ptr(), d.as_mut_ptr());
-            let codes = unsafe {
-                [
-                    ds_eval(m, x.as_ptr(), t, fp, 2),
-                    ds_eval_grad(m, x.as_ptr(), t, fp, gp, 2),
-                    ds_eval_jacobian(m, x.as_ptr(), t, fp, gp, dp, 2),
-                    ds_label(m, x.as_ptr(), t, &mut l),
-                ]
-            };
+            let codes = every_point_call(t, &mut f, &mut g, &mut d, &mut l);
             assert_eq!(codes, [DS_E_TIME_OUT_OF_RANGE; 4], "{t}");
             let all = f.iter().chain(&g).chain(&d);
             assert!(
@@ -1133,15 +1136,7 @@ mod tests {
         for t in [t0, t1, t0 - 5e-5, t1 + 5e-5, 0.5] {
             assert_eq!(unsafe { ds_check_time(m, t) }, DS_OK, "{t}");
             let (mut f, mut g, mut d, mut l) = ([0.0f32; 2], [0.0f32; 6], [0.0f32; 2], 7u32);
-            let (fp, gp, dp) = (f.as_mut_ptr(), g.as_mut_ptr(), d.as_mut_ptr());
-            let codes = unsafe {
-                [
-                    ds_eval(m, x.as_ptr(), t, fp, 2),
-                    ds_eval_grad(m, x.as_ptr(), t, fp, gp, 2),
-                    ds_eval_jacobian(m, x.as_ptr(), t, fp, gp, dp, 2),
-                    ds_label(m, x.as_ptr(), t, &mut l),
-                ]
-            };
+            let codes = every_point_call(t, &mut f, &mut g, &mut d, &mut l);
             assert_eq!(codes, [DS_OK; 4], "{t}");
             assert!(f.iter().chain(&g).chain(&d).all(|v| v.is_finite()) && l <= 2);
         }
