@@ -75,8 +75,8 @@ impl<F: PlaneField> PlaneField for Union<F> {
 pub const BISECTIONS: u32 = 24;
 
 /// Times every contour edge is split at the curve between its ends (step 4 above): the chords'
-/// distance from the curve falls 16-fold, at the cost of about as many field values again as
-/// the grid took.
+/// distance from the curve falls 16-fold. Each split costs 2 + [`BISECTIONS`] field values per
+/// edge (the bracket's ends, then the halvings), and the second split has twice the edges.
 pub const SUBDIVISIONS: u32 = 2;
 
 /// Most grid samples one plane may take (a 4096 × 4096 grid); a finer request is refused.
