@@ -1,7 +1,7 @@
-//! docs/architecture.md's crate table is made from the code: every package of the workspace
-//! and the Python package, its description (Cargo.toml) and the workspace crates it depends on
-//! (`cargo metadata`). This test fails when the page and the code disagree; run it with
-//! `DYNASLICE_BLESS=1` to rewrite the table.
+//! docs/architecture.md's crate table is made from the code: every package of the workspace,
+//! the Python package and the lab (each its own workspace), its description (Cargo.toml) and
+//! the workspace crates it depends on (`cargo metadata`). This test fails when the page and the
+//! code disagree; run it with `DYNASLICE_BLESS=1` to rewrite the table.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -66,6 +66,7 @@ fn table() -> String {
     let root = root();
     let mut all = packages(&root.join("Cargo.toml"));
     all.extend(packages(&root.join("dynaslice-python/Cargo.toml")));
+    all.extend(packages(&root.join("lab/Cargo.toml")));
     // Fewest workspace dependencies first, then by name: the layers read top-down.
     all.sort_by(|a, b| a.2.len().cmp(&b.2.len()).then(a.0.cmp(&b.0)));
     let mut s = String::from(
