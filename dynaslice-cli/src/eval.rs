@@ -11,7 +11,7 @@ use super::options::{
     MAX_PIXELS, MAX_TIMES,
 };
 use super::progress::Progress;
-use super::times::model_times;
+use super::times::{model_times, times_option};
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::format::MAX_CLASSES;
 use dynaslice_data::frame_range::FrameRange;
@@ -169,9 +169,10 @@ struct SplitArgs {
 struct VolumeArgs {
     /// Model file (.dsm).
     model: PathBuf,
-    /// N times evenly from A to B inclusive (default: the model's time range in 20 steps; a
+    /// Times: a list (0,0.5,1) or A:B:N, N evenly from A to B inclusive (default: the model's
+    /// time range in 20 steps; a
     /// static model, the same at every time, is measured once).
-    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
+    #[arg(long, value_name = "TIMES", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Lattice cells along the longest axis of the model's domain.
@@ -420,6 +421,7 @@ fn volume(a: VolumeArgs) -> Result<()> {
     plan.beside(&png)?;
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
+    let option = times_option(a.times.as_ref());
     let requested: Vec<f32> = match a.times {
         // The network takes f32 times.
         Some(series) => series.times().into_iter().map(|t| t as f32).collect(),
@@ -434,7 +436,7 @@ fn volume(a: VolumeArgs) -> Result<()> {
                 .collect()
         }
     };
-    let times: Vec<f64> = model_times(&file, &a.model, "--times", &requested, "measuring once")?
+    let times: Vec<f64> = model_times(&file, &a.model, &option, &requested, "measuring once")?
         .into_iter()
         .map(f64::from)
         .collect();

@@ -58,9 +58,10 @@ pub struct Args {
     /// Voxel size: one value, or SX,SY,SZ (default: 128 voxels along the longest axis).
     #[arg(long, value_delimiter = ',', value_parser = positive_f64, allow_negative_numbers = true)]
     spacing: Option<Vec<f64>>,
-    /// Frames at N times evenly from A to B inclusive (default: the model's time range in 10
+    /// Frames at these times: a list (0,0.5,1) or A:B:N, N evenly from A to B inclusive
+    /// (default: the model's time range in 10
     /// frames; a static model, the same at every time, gets one frame).
-    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
+    #[arg(long, value_name = "TIMES", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Output .nii or .nii.gz (one file, a frame per time, plus OUT.ctbl and OUT.label.txt
@@ -276,7 +277,7 @@ fn bounds_grid(a: &Args, model: &Model, is_static: bool) -> Result<VoxelGrid> {
             [0, 1, 2].map(|i| hi[i] - lo[i])
         );
     }
-    let times = match a.times {
+    let times = match &a.times {
         Some(series) => series.times(),
         None if is_static => vec![f64::from(model.domain().time_range().0)],
         None => {

@@ -6,6 +6,7 @@ use super::console::{errln, outln};
 use super::model::ModelFile;
 use super::options::{count, positive_f64, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
 use super::progress::Progress;
+use super::times::times_option;
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::color_table::{table_paths, write_tables};
@@ -43,9 +44,10 @@ closed surface DIR/classK_NAME.itv.ply in LPS). A summary is printed on standard
 pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
-    /// N times evenly from A to B inclusive (default: the model's time range at 21 times; the
+    /// Times: a list (0,0.5,1) or A:B:N, N evenly from A to B inclusive (default: the model's
+    /// time range at 21 times; the
     /// model's time for a static one).
-    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
+    #[arg(long, value_name = "TIMES", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Meshing lattice cells along the longest axis of the model's domain.
@@ -159,6 +161,7 @@ pub fn time_axis(frame: Frame) -> &'static str {
 /// `times`, checked against the model's range, or the default: 21 times over a moving
 /// model's range, its start for a static one.
 pub fn times_of(file: &ModelFile, times: Option<TimeSeries>) -> Result<Vec<f64>> {
+    let option = times_option(times.as_ref());
     let times = match times {
         Some(series) => series.times(),
         None if file.is_static() => vec![f64::from(file.time("--times", None)?)],
@@ -170,7 +173,7 @@ pub fn times_of(file: &ModelFile, times: Option<TimeSeries>) -> Result<Vec<f64>>
         }
     };
     for &t in &times {
-        file.check_time("--times", t as f32)?;
+        file.check_time(&option, t as f32)?;
     }
     Ok(times)
 }

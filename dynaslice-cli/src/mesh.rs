@@ -10,7 +10,7 @@ use super::options::{
     MAX_THREADS, MAX_TIMES,
 };
 use super::progress::Progress;
-use super::times::model_times;
+use super::times::{model_times, times_option};
 use anyhow::{anyhow, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::TimeSeries;
@@ -40,10 +40,11 @@ pub struct Args {
     /// model's default is its time).
     #[arg(long, allow_negative_numbers = true, value_parser = finite_f32)]
     time: Option<f32>,
-    /// A series: N times evenly spaced from A to B inclusive; -o is then a directory.
+    /// Several times: a list (0,0.5,1) or A:B:N, N evenly from A to B inclusive; -o is then a
+    /// directory.
     #[arg(
         long,
-        value_name = "A:B:N",
+        value_name = "TIMES",
         conflicts_with = "time",
         allow_hyphen_values = true,
         value_parser = time_series(MAX_TIMES)
@@ -156,18 +157,18 @@ fn mesh_all(args: &Args) -> Result<()> {
     let (option, requested) = match (&args.times, args.time) {
         // The network takes f32 times (the f64 series rounded once).
         (Some(series), _) => (
-            "--times",
+            times_option(Some(series)),
             series.times().into_iter().map(|t| t as f32).collect(),
         ),
-        (None, Some(t)) => ("--time", vec![t]),
-        (None, None) => ("--time", vec![file.time("--time", None)?]),
+        (None, Some(t)) => ("--time".into(), vec![t]),
+        (None, None) => ("--time".into(), vec![file.time("--time", None)?]),
     };
     // Checked against the time range (outside it the network extrapolates freely); a static
     // model's surfaces are meshed once.
     let times = model_times(
         &file,
         &args.model,
-        option,
+        &option,
         &requested,
         "writing one mesh per class",
     )?;

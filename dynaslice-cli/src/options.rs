@@ -156,22 +156,16 @@ pub fn negative_numbers(cmd: clap::Command) -> clap::Command {
     .mut_subcommands(negative_numbers)
 }
 
-/// An `A:B:N` time series ([`TimeSeries`]: finite ends, B > A) of at most `max` times.
+/// A [`TimeSeries`] (a list `0,0.5,1` or `A:B:N`) of at most `max` times.
 pub fn time_series(
     max: usize,
 ) -> impl Fn(&str) -> Result<TimeSeries, String> + Clone + Send + Sync {
     move |s| {
         let series: TimeSeries = s.parse()?;
-        // The count is the third field (the parse above checked the shape).
-        let n: usize = s
-            .rsplit(':')
-            .next()
-            .and_then(|n| n.trim().parse().ok())
-            .unwrap_or(usize::MAX);
-        if n > max {
+        if series.len() > max {
             return Err(outside(
-                &format!("{n} times"),
-                &format!("at most {max} (N of A:B:N)"),
+                &format!("{} times", series.len()),
+                &format!("at most {max}"),
             ));
         }
         Ok(series)
@@ -230,6 +224,11 @@ mod tests {
         let t = time_series(100);
         assert!(t("0:1:100").is_ok());
         assert!(t("0:1:101").unwrap_err().contains("at most 100"));
+        let list = (0..101)
+            .map(|i| i.to_string())
+            .collect::<Vec<_>>()
+            .join(",");
+        assert!(t(&list).unwrap_err().contains("101 times"));
         assert!(t("0:NaN:3").is_err());
     }
 }

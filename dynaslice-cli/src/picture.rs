@@ -5,10 +5,11 @@ use super::console::errln;
 use super::input::{self, InputArgs};
 use super::mesh::surfaces_at;
 use super::model::ModelFile;
-use super::options::{count, finite_f64, MAX_MESH_RESOLUTION};
+use super::options::{count, time_series, MAX_MESH_RESOLUTION};
 use super::progress::Progress;
-use super::times::{model_times, note};
+use super::times::{model_times, note, times_option};
 use anyhow::{bail, Context, Result};
+use dynaslice_data::TimeSeries;
 use dynaslice_figures::picture::{match_classes, plane_labels, Panel};
 use dynaslice_figures::render3d::{self, Camera, RenderOptions, SurfacePanel};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
@@ -63,12 +64,12 @@ pub struct Args {
     /// Plane of that frame (default: the one with the most contour length).
     #[arg(long)]
     plane: Option<usize>,
-    /// Extra times (world units) shown on the same plane without contours; default: halfway
-    /// to the next annotated frame. With --3d: the panels' times (default: 4 evenly over the
-    /// model's time range).
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true,
-          value_parser = finite_f64)]
-    times: Option<Vec<f64>>,
+    /// Extra times shown on the same plane without contours, a list (0,0.5,1) or A:B:N, N
+    /// evenly from A to B inclusive; default: halfway to the next annotated frame. With --3d:
+    /// the panels' times (default: 4 evenly over the model's time range).
+    #[arg(long, value_name = "TIMES", allow_hyphen_values = true,
+          value_parser = time_series(MAX_PANELS.max(render3d::MAX_PANELS)))]
+    times: Option<TimeSeries>,
     /// --3d: where the surfaces are seen from.
     #[arg(long, value_enum, default_value_t = View::Oblique, requires = "three_d")]
     view: View,
@@ -153,7 +154,7 @@ fn run_3d(a: Args) -> Result<()> {
             t.len()
         ),
         // The network takes f32 times.
-        Some(t) => t.iter().map(|&t| t as f32).collect(),
+        Some(t) => t.times().into_iter().map(|t| t as f32).collect(),
         None if file.is_static() => vec![file.time("--times", None)?],
         None => {
             let (t0, t1) = model.domain().time_range();
@@ -165,7 +166,13 @@ fn run_3d(a: Args) -> Result<()> {
     };
     // Every time is checked before any meshing: outside the range the network extrapolates. A
     // static model is drawn once.
-    let times = model_times(&file, &a.model, "--times", &times, "drawing one panel")?;
+    let times = model_times(
+        &file,
+        &a.model,
+        &times_option(a.times.as_ref()),
+        &times,
+        "drawing one panel",
+    )?;
     // Names, labels and the input's colours where the model records them.
     let classes = file.classes();
     let channels: Vec<usize> = (0..model.num_classes()).collect();
@@ -253,6 +260,7 @@ pub fn run(a: Args) -> Result<()> {
             .context("the frame has no plane")?,
     };
     let plane = &frame.planes[plane_index];
+    let option = times_option(a.times.as_ref());
     let extra = match a.times {
         Some(t) if file.is_static() => {
             note(&format!(
@@ -263,7 +271,7 @@ pub fn run(a: Args) -> Result<()> {
             ));
             vec![]
         }
-        Some(t) => t,
+        Some(t) => t.times(),
         // Another time of a static model would show the same labels.
         None if file.is_static() => vec![],
         None => match frames.get(a.frame + 1) {
@@ -272,7 +280,7 @@ pub fn run(a: Args) -> Result<()> {
         },
     };
     for &t in &extra {
-        file.check_time("--times", t as f32)?;
+        file.check_time(&option, t as f32)?;
     }
     let mut panels = vec![Panel {
         time: frame.time,

@@ -40,8 +40,9 @@ pub struct Args {
     /// Output page (.html).
     #[arg(short, long, value_name = "REPORT.html")]
     output: PathBuf,
-    /// N times evenly from A to B inclusive (default: as `dynaslice measure`).
-    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
+    /// Times: a list (0,0.5,1) or A:B:N, N evenly from A to B inclusive (default: as
+    /// `dynaslice measure`).
+    #[arg(long, value_name = "TIMES", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Meshing lattice cells along the longest axis of the model's domain (measurements and

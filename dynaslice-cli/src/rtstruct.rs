@@ -8,6 +8,7 @@ use super::input::regular_file;
 use super::model::ModelFile;
 use super::options::{count, positive_f64, positive_f64_to, time_series, MAX_THREADS, MAX_TIMES};
 use super::progress::Progress;
+use super::times::times_option;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::nifti::read_geometry;
@@ -54,9 +55,10 @@ pub struct Args {
     /// Reference image (NIfTI): contours on its slices (its k axis).
     #[arg(long, value_name = "REF.nii.gz")]
     like_grid: Option<PathBuf>,
-    /// N times evenly from A to B inclusive (default: the times of the model's training input,
+    /// Times: a list (0,0.5,1) or A:B:N, N evenly from A to B inclusive (default: the times
+    /// of the model's training input,
     /// read from the sequence manifest the model records).
-    #[arg(long, value_name = "A:B:N", allow_hyphen_values = true,
+    #[arg(long, value_name = "TIMES", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Add to every file an ITV per class: the union of its regions over the written times,
@@ -101,12 +103,13 @@ pub fn run(a: Args) -> Result<()> {
     let model = file.model();
     regular_file("RT Structure Set", &a.like)?;
     let template = Template::read(&a.like)?;
-    let times = match a.times {
+    let option = times_option(a.times.as_ref());
+    let times = match &a.times {
         Some(series) => series.times(),
         None => input_times(&file, &model, &a.model)?,
     };
     for &t in &times {
-        file.check_time("--times", t as f32)?;
+        file.check_time(&option, t as f32)?;
     }
     let ct = a.ct.as_deref().map(image_series::read).transpose()?;
     if let Some(ct) = &ct {

@@ -5,7 +5,17 @@
 use super::console::errln;
 use super::model::ModelFile;
 use anyhow::Result;
+use dynaslice_data::TimeSeries;
 use std::path::Path;
+
+/// How a message names one time of `--times`: with the series as the user typed it, so that a
+/// time the series made (1.5 of `0:2:5`) is seen to come from what they typed.
+pub(crate) fn times_option(series: Option<&TimeSeries>) -> String {
+    match series {
+        Some(series) => format!("--times {series}: time"),
+        None => "--times".into(),
+    }
+}
 
 /// The times to evaluate `file`'s model (read from `path`) at for `requested` (given with `option`): a moving
 /// model's, each checked against its time range; a static model's one time (the start of its

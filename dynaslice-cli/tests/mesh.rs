@@ -220,7 +220,7 @@ fn errors_name_the_file_and_the_problem() {
             vec!["--time", "3"],
             "--time 3 is outside the model's time range [0, 2]",
         ),
-        (vec!["--times", "0:1"], "expected A:B:N"),
+        (vec!["--times", "0:1"], "A:B:N takes three values"),
         (
             vec!["--time", "0", "--resolution", "0"],
             "invalid value '0' for '--resolution <RESOLUTION>'",
@@ -235,6 +235,22 @@ fn errors_name_the_file_and_the_problem() {
             "{all:?}: {stderr}"
         );
     }
+    // A time a series made is named with the series as typed.
+    let series_dir = dir.path().join("series");
+    let o = dynaslice(&[
+        "mesh",
+        &model,
+        "--times",
+        "0:3:4",
+        "-o",
+        series_dir.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && stderr.contains("--times 0:3:4: time 3 is outside the model's time range [0, 2]"),
+        "{stderr}"
+    );
     let o = dynaslice(&["mesh", &model, "--time", "0", "-o", "mesh.off"]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(

@@ -191,18 +191,24 @@ fn bad_3d_requests_fail_clearly_and_write_nothing() {
     let png = dir.path().join("s.png");
     let png = png.to_str().unwrap();
     let jpg = dir.path().join("s.jpg");
-    let seventeen = vec!["1"; 17].join(",");
+    let seventeen = (0..17)
+        .map(|i| format!("{}", i as f64 / 10.0))
+        .collect::<Vec<_>>()
+        .join(",");
     let cases: [(Vec<&str>, &[&str]); 4] = [
         (vec!["-o", jpg.to_str().unwrap()], &["s.jpg", "*.png"]),
         (
             vec!["-o", png, "--times", "0,5"],
             &[
-                "--times 5",
+                "--times 0,5: time 5",
                 "outside the model's time range [0, 2]",
                 "balls.dsm",
             ],
         ),
-        (vec!["-o", png, "--times", "-1"], &["--times -1", "outside"]),
+        (
+            vec!["-o", png, "--times", "-1"],
+            &["--times -1: time -1", "outside"],
+        ),
         (vec!["-o", png, "--times", &seventeen], &["at most 16"]),
     ];
     for (args, wanted) in cases {

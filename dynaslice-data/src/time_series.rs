@@ -1,16 +1,32 @@
-//! `A:B:N` time series (`--times 0:1:37`): N times evenly spaced from A to B inclusive, the
-//! frames of `dynaslice mesh`, `labels` and `eval volume`.
+//! The one time syntax of every command that evaluates a model at several times (`--times` of
+//! `mesh`, `labels`, `measure`, `report`, `rtstruct`, `eval volume` and `picture`): either a
+//! list, `0,0.25,1` (one time is a list of one, `0.5`), or `A:B:N`, N times evenly spaced from
+//! A to B inclusive (`0:1:37`). Both are in the model's own time units (seconds, milliseconds,
+//! or a normalised cycle: whatever the input's times were).
 
+use std::fmt;
 use std::str::FromStr;
 
-/// N evenly spaced times from `start` to `end` inclusive: finite, increasing (`end > start`),
-/// or a single time (`N = 1`, `start = end`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The times a user asked for, as typed: finite and increasing, at least one. `Display` gives
+/// back the text the user typed, so that a message about one of the times can quote it.
+#[derive(Clone, Debug, PartialEq)]
 pub struct TimeSeries {
-    start: f64,
-    end: f64,
-    count: usize,
+    times: Times,
+    text: String,
 }
+
+/// The two spellings of [`TimeSeries`].
+#[derive(Clone, Debug, PartialEq)]
+enum Times {
+    /// `A:B:N`: N evenly spaced times from A to B inclusive (N = 1 needs A = B).
+    Range { start: f64, end: f64, count: usize },
+    /// `t1,t2,…`: the times as listed.
+    List(Vec<f64>),
+}
+
+/// What every message about a bad time series ends with: the two accepted forms.
+const EXPECTED: &str = "expected a list such as 0,0.5,1 or A:B:N (N evenly spaced times from \
+                        A to B inclusive) such as 0:1:37";
 
 impl TimeSeries {
     /// `count` times across `[start, end]` given in f32 (a model's time range), each end taken at
@@ -20,15 +36,42 @@ impl TimeSeries {
         format!("{start}:{end}:{count}").parse()
     }
 
-    /// The times, `start + (end − start) · i / (N − 1)` for i = 0..N.
-    pub fn times(&self) -> Vec<f64> {
-        if self.count == 1 {
-            return vec![self.start];
+    /// How many times the series holds (known before they are made: a count check costs
+    /// nothing even for `0:1:4000000000`).
+    pub fn len(&self) -> usize {
+        match &self.times {
+            Times::Range { count, .. } => *count,
+            Times::List(list) => list.len(),
         }
-        let (a, b, n) = (self.start, self.end, self.count);
-        (0..n)
-            .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
-            .collect()
+    }
+
+    /// Never true: a series holds at least one time (the parser refuses an empty one).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The times: for `A:B:N`, `A + (B − A) · i / (N − 1)` for i = 0..N; for a list, as listed.
+    pub fn times(&self) -> Vec<f64> {
+        match &self.times {
+            Times::List(list) => list.clone(),
+            Times::Range {
+                start, count: 1, ..
+            } => vec![*start],
+            &Times::Range {
+                start: a,
+                end: b,
+                count: n,
+            } => (0..n)
+                .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
+                .collect(),
+        }
+    }
+}
+
+impl fmt::Display for TimeSeries {
+    /// The series as the user typed it (surrounding blanks removed).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.text)
     }
 }
 
@@ -36,11 +79,7 @@ impl FromStr for TimeSeries {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let bad = |why: String| format!("time series {s:?}: {why} (expected A:B:N, e.g. 0:1:37)");
-        let parts: Vec<&str> = s.split(':').collect();
-        let [a, b, n] = parts[..] else {
-            return Err(bad("not three values separated by ':'".into()));
-        };
+        let bad = |why: String| format!("times {s:?}: {why} ({EXPECTED})");
         let number = |v: &str, what: &str| {
             v.trim()
                 .parse::<f64>()
@@ -48,24 +87,49 @@ impl FromStr for TimeSeries {
                 .filter(|x| x.is_finite())
                 .ok_or_else(|| bad(format!("{what} {v:?} is not a finite number")))
         };
-        let (start, end) = (number(a, "start")?, number(b, "end")?);
-        let count = n
-            .trim()
-            .parse::<usize>()
-            .ok()
-            .filter(|&n| n >= 1)
-            .ok_or_else(|| bad(format!("count {n:?} is not a whole number ≥ 1")))?;
-        if count == 1 {
-            if start != end {
-                return Err(bad("one time needs A = B".into()));
+        let times = if s.contains(':') {
+            let parts: Vec<&str> = s.split(':').collect();
+            let [a, b, n] = parts[..] else {
+                return Err(bad("A:B:N takes three values separated by ':'".into()));
+            };
+            let (start, end) = (number(a, "start")?, number(b, "end")?);
+            let count = n
+                .trim()
+                .parse::<usize>()
+                .ok()
+                .filter(|&n| n >= 1)
+                .ok_or_else(|| bad(format!("count {n:?} is not a whole number ≥ 1")))?;
+            if count == 1 {
+                if start != end {
+                    return Err(bad("one time needs A = B".into()));
+                }
+            } else if end <= start {
+                return Err(bad("the end must come after the start".into()));
+            } else if !(end - start).is_finite() {
+                // Finite ends whose difference overflows would give infinite and NaN times.
+                return Err(bad("the span B − A is too large".into()));
             }
-        } else if end <= start {
-            return Err(bad("the end must come after the start".into()));
-        } else if !(end - start).is_finite() {
-            // Finite ends whose difference overflows would give infinite and NaN times.
-            return Err(bad("the span B − A is too large".into()));
-        }
-        Ok(TimeSeries { start, end, count })
+            Times::Range { start, end, count }
+        } else {
+            if s.trim().is_empty() {
+                return Err(bad("no time given".into()));
+            }
+            let list = s
+                .split(',')
+                .map(|v| number(v, "time"))
+                .collect::<Result<Vec<f64>, String>>()?;
+            if let Some(w) = list.windows(2).find(|w| w[1] <= w[0]) {
+                return Err(bad(format!(
+                    "the times must increase, but {} comes after {}",
+                    w[1], w[0]
+                )));
+            }
+            Times::List(list)
+        };
+        Ok(TimeSeries {
+            times,
+            text: s.trim().to_string(),
+        })
     }
 }
 
@@ -112,9 +176,15 @@ mod tests {
     #[test]
     fn bad_series_are_refused_with_the_reason() {
         for (bad, why) in [
-            ("0:1", "not three values"),
-            ("0:1:3:4", "not three values"),
-            ("", "not three values"),
+            ("0:1", "three values"),
+            ("0:1:3:4", "three values"),
+            ("", "no time given"),
+            (" ", "no time given"),
+            ("0,x", "time \"x\" is not a finite number"),
+            ("0,,1", "time \"\" is not a finite number"),
+            ("0,NaN", "time \"NaN\""),
+            ("1,0.5", "must increase, but 0.5 comes after 1"),
+            ("0,0", "must increase"),
             ("0:x:3", "end \"x\" is not a finite number"),
             ("NaN:1:3", "start \"NaN\""),
             ("0:inf:3", "end \"inf\""),
@@ -128,10 +198,21 @@ mod tests {
         ] {
             let e = bad.parse::<TimeSeries>().unwrap_err();
             assert!(
-                e.contains(why) && e.contains("expected A:B:N"),
+                e.contains(why) && e.contains("0,0.5,1") && e.contains("A:B:N"),
                 "{bad}: {e}"
             );
         }
+    }
+
+    #[test]
+    fn a_list_is_taken_as_listed_and_quoted_as_typed() {
+        assert_eq!(times("0,0.25,1"), [0.0, 0.25, 1.0]);
+        assert_eq!(times(" -1 , 2 "), [-1.0, 2.0]);
+        assert_eq!(times("287.7"), [287.7]);
+        let typed = " 0:2:5 ".parse::<TimeSeries>().unwrap();
+        assert_eq!(typed.to_string(), "0:2:5");
+        assert_eq!((typed.len(), typed.is_empty()), (5, false));
+        assert_eq!("0,1,2".parse::<TimeSeries>().unwrap().len(), 3);
     }
 
     #[test]
