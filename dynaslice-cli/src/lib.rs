@@ -8,6 +8,7 @@ mod completions;
 mod console;
 mod demo;
 mod eval;
+mod examples;
 mod info;
 mod input;
 mod labels;
@@ -38,6 +39,7 @@ use std::process::ExitCode;
 #[derive(Parser, Debug)]
 #[command(name = "dynaslice", version, arg_required_else_help = true)]
 #[command(mut_subcommands(options::negative_numbers))]
+#[command(mut_subcommands(examples::append))]
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
