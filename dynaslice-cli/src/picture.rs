@@ -10,6 +10,7 @@ use super::progress::Progress;
 use super::times::{model_times, note, times_option};
 use anyhow::{bail, Context, Result};
 use dynaslice_data::TimeSeries;
+use dynaslice_figures::display::Display;
 use dynaslice_figures::picture::{match_classes, plane_labels, Panel};
 use dynaslice_figures::render3d::{self, Camera, RenderOptions, SurfacePanel};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
@@ -70,6 +71,11 @@ pub struct Args {
     #[arg(long, value_name = "TIMES", allow_hyphen_values = true,
           value_parser = time_series(MAX_PANELS.max(render3d::MAX_PANELS)))]
     times: Option<TimeSeries>,
+    /// Which way round axial and coronal planes are drawn: radiological (the patient's left on
+    /// the right, anterior or superior up, as PACS and planning systems show them) or
+    /// neurological (the patient's left on the left). The picture's note names it.
+    #[arg(long, value_enum, default_value_t = Convention::Radiological, conflicts_with = "three_d")]
+    display: Convention,
     /// --3d: where the surfaces are seen from.
     #[arg(long, value_enum, default_value_t = View::Oblique, requires = "three_d")]
     view: View,
@@ -97,6 +103,24 @@ fn one_mode(arg: clap::Arg) -> clap::Arg {
         arg.conflicts_with_all(THREE_D_ONLY)
     } else {
         arg
+    }
+}
+
+/// The conventions of `--display`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum Convention {
+    /// The patient's left on the right of the picture.
+    Radiological,
+    /// The patient's left on the left of the picture.
+    Neurological,
+}
+
+impl From<Convention> for Display {
+    fn from(c: Convention) -> Display {
+        match c {
+            Convention::Radiological => Display::Radiological,
+            Convention::Neurological => Display::Neurological,
+        }
     }
 }
 
@@ -320,7 +344,16 @@ pub fn run(a: Args) -> Result<()> {
     // Ticks, scale bar and plane position in the input's unit (mm for DICOM, NIfTI, NRRD).
     let unit = file.units().map_or("world units", |u| u.length());
     write_via(&a.output, |tmp| {
-        plane_labels(&model, &classes, &drawn_as, plane, &panels, unit, tmp)
+        plane_labels(
+            &model,
+            &classes,
+            &drawn_as,
+            plane,
+            &panels,
+            unit,
+            a.display.into(),
+            tmp,
+        )
     })?;
     progress.set_position(panels.len() as u64);
     progress.finish();

@@ -1,5 +1,6 @@
 //! DynaSlice's figures: PNG line charts with a bundled font ([`plot`]), a model's labels with
-//! the input contours on an input plane ([`picture`]), and shaded 3D surfaces drawn by a
+//! the input contours on an input plane ([`picture`], axial and coronal planes in the
+//! radiological or neurological convention, [`display`]), and shaded 3D surfaces drawn by a
 //! software rasteriser ([`render3d`]). One colour per class in all of them ([`color`]).
 //!
 //! Every figure is drawn into memory and written atomically (temporary file, fsync, rename).
@@ -7,6 +8,7 @@
 #![warn(missing_docs)]
 
 pub mod color;
+pub mod display;
 mod legend;
 pub mod picture;
 pub mod plot;

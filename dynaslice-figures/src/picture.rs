@@ -12,6 +12,7 @@
 //! rows as it needs.
 
 use crate::color::{class_color, lighten};
+use crate::display::Display;
 use crate::legend::{self, Item};
 use anyhow::{anyhow, Result};
 use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
@@ -169,7 +170,9 @@ pub fn match_classes(model: &[ClassInfo], input: &[ClassInfo]) -> Vec<Option<usi
 /// Renders `panels` of `model`'s labels over `plane`'s region of interest into a PNG, written
 /// atomically. `classes` are the model's (one per channel, with the colours to draw them in);
 /// `drawn_as[c]` is the channel input class `c`'s contours are drawn as ([`match_classes`];
-/// `None`: not drawn).
+/// `None`: not drawn). Axial and coronal planes are drawn in the `display` convention, which
+/// the picture's note names.
+#[allow(clippy::too_many_arguments)]
 pub fn plane_labels(
     model: &Model,
     classes: &[ClassInfo],
@@ -177,9 +180,22 @@ pub fn plane_labels(
     plane: &Plane,
     panels: &[Panel],
     unit: &str,
+    display: Display,
     path: &Path,
 ) -> Result<()> {
     let err = |e: &dyn std::fmt::Display| anyhow!("cannot draw {}: {e}", path.display());
+    // Axial and coronal planes in the display convention (the note says which); the panels'
+    // contours are the plane's own, turned the same way.
+    let turned = display.orient(plane);
+    let convention = turned.as_ref().map(|_| display.describe());
+    let plane = turned.as_ref().unwrap_or(plane);
+    let contours: Vec<Option<Plane>> = panels
+        .iter()
+        .map(|p| {
+            p.contours
+                .map(|c| display.orient(c).unwrap_or_else(|| c.clone()))
+        })
+        .collect();
     crate::plot::register_font();
     let (lo, hi) = (plane.roi.min, plane.roi.max);
     let (w, h) = (hi[0] - lo[0], hi[1] - lo[1]);
@@ -221,7 +237,12 @@ pub fn plane_labels(
             }
         })
         .collect();
-    let note = "fill: predicted labels (Eq. 11); lines: input contours";
+    let note = match convention {
+        Some(convention) => {
+            format!("fill: predicted labels (Eq. 11); lines: input contours; {convention}")
+        }
+        None => "fill: predicted labels (Eq. 11); lines: input contours".to_string(),
+    };
     let layout = legend::across(&items, width - 2 * margin);
     let width = width.max(layout.width() + 2 * margin);
     let legend_top = heading_h + title_h + ph + bottom;
@@ -290,7 +311,7 @@ pub fn plane_labels(
                 (x0, heading_h as i32),
                 ("sans-serif", 18),
             )))?;
-            if let Some(p) = panel.contours {
+            if let Some(p) = &contours[i] {
                 for a in &p.annotations {
                     let Some(k) = drawn_as.get(a.class).copied().flatten() else {
                         continue;

@@ -118,6 +118,16 @@ fn integer_tick(v: f64) -> String {
     }
 }
 
+/// A tick label on a linear axis from `lo` to `hi`: [`tidy`], with a tick that is zero up to
+/// rounding (the axis's key points are sums of floats: `-6e-17` where 0 was meant) shown as 0.
+fn linear_tick(v: f64, lo: f64, hi: f64) -> String {
+    if v.abs() <= 1e-9 * (hi - lo).abs() {
+        "0".into()
+    } else {
+        tidy(v)
+    }
+}
+
 /// A tick label without float noise: up to 4 decimals with trailing zeros dropped
 /// (`0.3`, `250`, `0.0125`), or `1e-5`-style for very small or large magnitudes.
 fn tidy(v: f64) -> String {
@@ -222,7 +232,14 @@ fn chart(
                     if integer_x {
                         integer_tick(*v)
                     } else {
+                        linear_tick(*v, x0, x1)
+                    }
+                };
+                let y_format = |v: &f64| {
+                    if log_y {
                         tidy(*v)
+                    } else {
+                        linear_tick(*v, y0, y1)
                     }
                 };
                 chart
@@ -231,7 +248,7 @@ fn chart(
                     .y_desc(y_label)
                     .label_style(("sans-serif", 16))
                     .x_label_formatter(&x_format)
-                    .y_label_formatter(&|v| tidy(*v))
+                    .y_label_formatter(&y_format)
                     .axis_desc_style(("sans-serif", 18))
                     .draw()
                     .map_err(|e| err(&e))?;
@@ -390,6 +407,14 @@ mod tests {
             .filter(|&(x, y)| pixel(&img, x, y) == [blue.0, blue.1, blue.2])
             .count();
         assert!(marker > 50, "curve and markers drawn: {marker} pixels");
+    }
+
+    #[test]
+    fn a_tick_at_zero_up_to_rounding_reads_0() {
+        assert_eq!(linear_tick(-6e-17, 0.0, 1.0), "0");
+        assert_eq!(linear_tick(0.25, 0.0, 1.0), "0.25");
+        // On an axis of tiny values a tiny tick is a value, not noise.
+        assert_eq!(linear_tick(2e-6, 0.0, 1e-5), "2e-6");
     }
 
     #[test]

@@ -4,6 +4,7 @@
 
 use dynaslice_core::Model;
 use dynaslice_figures::class_color;
+use dynaslice_figures::display::Display;
 use dynaslice_figures::picture::{match_classes, plane_labels, Panel};
 use dynaslice_figures::render3d::{render_surfaces, RenderOptions, SurfacePanel};
 use dynaslice_mesh::{extract, Options};
@@ -109,7 +110,17 @@ fn slice_picture_colours_classes_and_fits_a_41_class_legend() {
     ];
     let drawn_as = match_classes(&classes(), sequence.classes());
     assert_eq!(drawn_as, (0..CLASSES).map(Some).collect::<Vec<_>>());
-    plane_labels(&model, &classes(), &drawn_as, &plane, &panels, "mm", &path).unwrap();
+    plane_labels(
+        &model,
+        &classes(),
+        &drawn_as,
+        &plane,
+        &panels,
+        "mm",
+        Display::Radiological,
+        &path,
+    )
+    .unwrap();
     let img = image::open(&path).unwrap().to_rgb8();
     // Two 480-pixel panels side by side; the legend's 41 entries in several columns below.
     assert!(
@@ -183,6 +194,7 @@ fn slice_picture_draws_only_the_models_classes_and_annotates_off_the_data() {
         &plane,
         &panels,
         "mm",
+        Display::Radiological,
         &path,
     )
     .unwrap();
@@ -257,4 +269,60 @@ fn rendered_surfaces_of_a_model_at_two_times() {
     };
     let (first, second) = (shaded(10), shaded(500));
     assert!(first > 20_000 && second > first, "{first} {second}");
+}
+
+/// An axial plane whose region holds the ball (centre x = 10 mm, the patient's right in RAS)
+/// a third of the way from its −x end. Neurological pictures keep +x to the right, so the ball
+/// is drawn a third of the way across; radiological ones put the patient's right on the left of
+/// the screen (+x to the left), so it is drawn two thirds of the way across.
+#[test]
+fn axial_pictures_follow_the_display_convention() {
+    let bytes = model_bytes();
+    let model = Model::from_bytes(&bytes).unwrap();
+    let plane = Plane {
+        origin: [0.0, 0.0, 2.0],
+        u: [1.0, 0.0, 0.0],
+        v: [0.0, 1.0, 0.0],
+        roi: Rect {
+            min: [-10.0, -25.0],
+            max: [50.0, 15.0],
+        },
+        annotations: vec![],
+    };
+    let panels = [Panel {
+        time: 0.0,
+        title: "t = 0".into(),
+        contours: None,
+    }];
+    let dir = tempfile::tempdir().unwrap();
+    let fill = lighten([200, 40, 40]);
+    let mean_x = |display: Display| {
+        let path = dir.path().join(format!("{display:?}.png"));
+        plane_labels(
+            &model,
+            &classes(),
+            &[],
+            &plane,
+            &panels,
+            "mm",
+            display,
+            &path,
+        )
+        .unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        // The panel: 480 × 320 pixels below the heading and title (34 + 26 pixels), right of
+        // the margin and tick gutter (10 + 64 pixels); the legend's swatch lies below it.
+        let xs: Vec<f64> = img
+            .enumerate_pixels()
+            .filter(|(x, y, p)| p.0 == fill && *y >= 60 && *y < 60 + 320 && *x >= 74)
+            .map(|(x, _, _)| (x - 74) as f64 / 480.0)
+            .collect();
+        assert!(xs.len() > 10_000, "{display:?}: {} pixels", xs.len());
+        xs.iter().sum::<f64>() / xs.len() as f64
+    };
+    // The ball's centre is at a third of the region from its −x end: 20 of 60 mm.
+    let radiological = mean_x(Display::Radiological);
+    let neurological = mean_x(Display::Neurological);
+    assert!((radiological - 2.0 / 3.0).abs() < 0.02, "{radiological}");
+    assert!((neurological - 1.0 / 3.0).abs() < 0.02, "{neurological}");
 }
