@@ -26,7 +26,7 @@ use dynaslice_metrics::Frames;
 use dynaslice_output::write_atomically;
 use dynaslice_output::write_via;
 use dynaslice_output::{Kind, Plan};
-use dynaslice_sequence::native;
+use dynaslice_sequence::{native, Units};
 use dynaslice_synth::{BenchmarkOptions, Shape};
 use dynaslice_train::data_sampler::domain_for;
 use dynaslice_train::model_file::check_model_limits;
@@ -445,12 +445,20 @@ fn volume(a: VolumeArgs) -> Result<()> {
         progress.set_position(i as u64)
     })?;
     progress.finish();
+    // In the unit every command reports volumes in: mL for a model of millimetres, the input's
+    // plain units³ otherwise.
+    let units = file.units().unwrap_or(Units::Plain);
+    let mut curve = curve;
+    for v in curve.volumes.iter_mut().flatten() {
+        *v = units.from_world_volume(*v);
+    }
     write_via(&a.output, |tmp| curve.write_csv(tmp))?;
     let title = format!("class volumes of {}", a.model.display());
     write_via(&png, |tmp| {
         volume_chart(
             tmp,
             &title,
+            units.volume(),
             &curve.classes,
             &[],
             &curve.times,
@@ -464,8 +472,9 @@ fn volume(a: VolumeArgs) -> Result<()> {
             .iter()
             .fold((f64::MAX, f64::MIN), |(l, h), &x| (l.min(x), h.max(x)));
         outln!(
-            "class {} {name:?}: volume {lo:.6} to {hi:.6} (world units³)",
-            c + 1
+            "class {} {name:?}: volume {lo:.6} to {hi:.6} {}",
+            c + 1,
+            units.volume()
         )?;
     }
     Ok(())

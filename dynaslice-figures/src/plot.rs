@@ -285,18 +285,20 @@ fn chart(
     crate::save_png(path, &buffer, width, height)
 }
 
-/// A PNG chart of each class's volume over time: `volumes[time][class]` at `times`, one line
-/// per name in `classes`, in the class's colour ([`class_color`] of its index and of its entry
-/// in `colors`, which may be shorter than `classes` or empty).
+/// A PNG chart of each class's volume over time: `volumes[time][class]` at `times` in `unit`
+/// (`mL`, `units³`), one line per name in `classes`, in the class's colour ([`class_color`] of
+/// its index and of its entry in `colors`, which may be shorter than `classes` or empty).
 pub fn volume_chart(
     path: &Path,
     title: &str,
+    unit: &str,
     classes: &[String],
     colors: &[Option<[u8; 3]>],
     times: &[f64],
     volumes: &[Vec<f64>],
 ) -> Result<()> {
-    let axes = ("time", "volume (world units³)");
+    let y = format!("volume ({unit})");
+    let axes = ("time", y.as_str());
     class_chart(path, title, axes, classes, colors, times, volumes)
 }
 
@@ -442,6 +444,7 @@ mod tests {
         volume_chart(
             &path,
             "volumes",
+            "mL",
             &classes,
             &colors,
             &[0.0, 0.5, 1.0],
@@ -457,6 +460,6 @@ mod tests {
         // 41 entries do not fit one column of 600 px: the legend has several columns.
         assert!(img.width() > 1000 + 2 * 100, "{}", img.width());
         // A short row of volumes is not an index out of bounds.
-        volume_chart(&path, "v", &classes, &[], &[0.0], &[vec![1.0]]).unwrap();
+        volume_chart(&path, "v", "mL", &classes, &[], &[0.0], &[vec![1.0]]).unwrap();
     }
 }
