@@ -105,7 +105,7 @@ fn bad_inputs_are_named() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        !out.status.success() && err.contains("unsupported input type"),
+        !out.status.success() && err.contains("not a kind of input DynaSlice reads"),
         "{err}"
     );
     let input = write_sequence(dir.path());

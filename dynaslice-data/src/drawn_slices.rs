@@ -687,7 +687,11 @@ fn class_labels(
                 );
             }
             if let Some(&l) = ls.iter().find(|l| !present.contains(l)) {
-                return Err(ErrorKind::LabelAbsent(l).into());
+                return Err(ErrorKind::LabelAbsent {
+                    label: l,
+                    present: present.iter().copied().collect(),
+                }
+                .into());
             }
             let set: BTreeSet<i32> = ls.iter().copied().collect();
             set.into_iter().collect()

@@ -42,12 +42,7 @@ impl InputKind {
         } else if has_dicom_marker(path)? {
             InputKind::RtStruct
         } else {
-            return Err(DataError::new(ErrorKind::Option(
-                "unsupported input type (expected .json, .csl, .seq, .cslseq, .nii, .nii.gz, \
-                 .nrrd, .nhdr, .seg.nrrd, or a DICOM RT Structure Set)"
-                    .into(),
-            ))
-            .in_file(path));
+            return Err(DataError::new(ErrorKind::UnsupportedInput).in_file(path));
         };
         Ok(kind)
     }

@@ -121,7 +121,11 @@ pub fn reslice(
     let labels: Vec<i32> = match &options.labels {
         Some(ls) => {
             if let Some(&l) = ls.iter().find(|l| !present.contains(l)) {
-                return Err(ErrorKind::LabelAbsent(l).into());
+                return Err(ErrorKind::LabelAbsent {
+                    label: l,
+                    present: present.iter().copied().collect(),
+                }
+                .into());
             }
             let mut ls = ls.clone();
             ls.sort_unstable();

@@ -592,7 +592,10 @@ fn bad_inputs_are_refused_with_clear_errors() {
     let e = slices(&good, "7:9".parse().unwrap(), None, &table).unwrap_err();
     assert!(matches!(e.kind, ErrorKind::Option(_)), "{e}");
     let e = slices(&good, FrameRange::ALL, Some(&[1, 5]), &table).unwrap_err();
-    assert!(matches!(e.kind, ErrorKind::LabelAbsent(5)), "{e}");
+    assert!(
+        matches!(e.kind, ErrorKind::LabelAbsent { label: 5, .. }),
+        "{e}"
+    );
     let e = slices(&good, FrameRange::ALL, Some(&[0, 1]), &table).unwrap_err();
     assert!(e.to_string().contains("background"), "{e}");
     let e = sparse_with_axes(

@@ -100,7 +100,10 @@ fn manifest_errors_name_the_manifest_line_or_the_entry() {
             "cine.nii.gz holds 2 timesteps",
         ),
         ("0 ball_0.csl\n1 m.seq\n", "cannot list a manifest"),
-        ("0 ball_0.csl\n1 notes.txt\n", "unsupported input type"),
+        (
+            "0 ball_0.csl\n1 notes.txt\n",
+            "not a kind of input DynaSlice reads",
+        ),
         ("0 ball_0.csl\n1 gone.csl\n", "gone.csl"),
         (
             "1 ball_0.csl\n0 ball_1.csl\n",

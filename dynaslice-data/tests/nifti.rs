@@ -171,7 +171,16 @@ fn frames_and_labels_are_selectable() {
         &LabelTable::default(),
     )
     .unwrap_err();
-    assert!(matches!(e.kind, ErrorKind::LabelAbsent(9)), "{e}");
+    assert!(
+        matches!(e.kind, ErrorKind::LabelAbsent { label: 9, .. }),
+        "{e}"
+    );
+    // The message lists the labels that are there.
+    assert!(
+        e.to_string()
+            .contains("label 9 is absent from every selected frame; the labels there are 3, 5"),
+        "{e}"
+    );
     let e = reslice(
         &v,
         &ResliceOptions {

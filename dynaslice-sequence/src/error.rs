@@ -162,12 +162,42 @@ pub enum ErrorKind {
     /// Several inputs that cannot be combined into one sequence (time grids, frames, classes).
     #[error("inputs do not combine: {0}")]
     Combine(String),
-    /// A requested label that no selected frame of the volume contains.
-    #[error("label {0} is absent from every selected frame")]
-    LabelAbsent(i32),
+    /// A requested label that no selected frame of the volume contains, with the labels that
+    /// are there (ascending).
+    #[error(
+        "label {label} is absent from every selected frame; {}",
+        present_labels(present)
+    )]
+    LabelAbsent {
+        /// The label asked for.
+        label: i32,
+        /// The labels the selected frames hold.
+        present: Vec<i32>,
+    },
+    /// A file whose name and contents match no input format.
+    #[error(
+        "not a kind of input DynaSlice reads (expected .json, .csl, .seq, .cslseq, .nii, \
+         .nii.gz, .nrrd, .nhdr, .seg.nrrd, or a DICOM RT Structure Set)"
+    )]
+    UnsupportedInput,
     /// An invalid option value (frame range, plane counts, ...).
     #[error("invalid option: {0}")]
     Option(String),
+}
+
+/// The labels a volume holds, for a message: all of them, or the first 20 and a count.
+fn present_labels(present: &[i32]) -> String {
+    if present.is_empty() {
+        return "the selected frames hold no label".into();
+    }
+    let shown: Vec<String> = present.iter().take(20).map(i32::to_string).collect();
+    let more = present.len().saturating_sub(20);
+    let more = if more > 0 {
+        format!(" and {more} more")
+    } else {
+        String::new()
+    };
+    format!("the labels there are {}{more}", shown.join(", "))
 }
 
 /// An input problem with its location. See the [module docs](self).
