@@ -5,7 +5,6 @@ use super::console::{errln, outln};
 use super::input::regular_file;
 use super::input::{self, InputArgs};
 use super::memory::{self, MemoryArgs};
-use super::model::ModelFile;
 use super::options::{
     count, finite_f32, time_series, MAX_CHAMFER_SAMPLES, MAX_IOU_RESOLUTION, MAX_MESH_RESOLUTION,
     MAX_PIXELS, MAX_TIMES,
@@ -23,6 +22,7 @@ use dynaslice_metrics::chamfer::{self, DEFAULT_SAMPLES};
 use dynaslice_metrics::heldout::{self, Split, DEFAULT_PIXELS};
 use dynaslice_metrics::volume::volume_curve_with;
 use dynaslice_metrics::Frames;
+use dynaslice_model::ModelFile;
 use dynaslice_output::write_atomically;
 use dynaslice_output::write_via;
 use dynaslice_output::{Kind, Plan};

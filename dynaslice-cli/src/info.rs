@@ -2,11 +2,11 @@
 
 use super::console::outln;
 use super::input::{self, InputArgs};
-use super::model::ModelFile;
 use super::progress::Progress;
 use anyhow::{Context, Result};
 use dynaslice_core::Weights;
 use dynaslice_metrics::extent;
+use dynaslice_model::ModelFile;
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice info`.

@@ -3,17 +3,16 @@
 //! the ITV (dynaslice_metrics::itv) as label volumes and meshes.
 
 use super::console::{errln, outln};
-use super::model::ModelFile;
 use super::options::{count, positive_f64, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
 use super::progress::Progress;
 use anyhow::{Context, Result};
-use dynaslice_core::Model;
 use dynaslice_data::color_table::{table_paths, write_tables};
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
-use dynaslice_data::{manifest, ClassInfo, TimeSeries};
+use dynaslice_data::{ClassInfo, TimeSeries};
 use dynaslice_mesh::io::{self as mesh_io, class_tag, Format, MeshInfo, Space};
 use dynaslice_metrics::itv::{itv_masks, itv_meshes};
 use dynaslice_metrics::motion::{round, Cycle, Frame, Motion, Units};
+use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
 use dynaslice_output::{Kind, Plan};
 use dynaslice_sequence::palette;
@@ -29,8 +28,9 @@ const DEFAULT_TIMES: usize = 21;
 #[command(after_help = "\
 Per class and time: the volume (mL where the input was in millimetres: DICOM, NIfTI, NRRD;
 the input's plain units³ for .csl and native JSON), the centroid and the bounding box in the
-input's patient frame (LPS for DICOM: +x left, +y posterior, +z superior; RAS for NIfTI and
-NRRD: +x right, +y anterior, +z superior). Per class over the times: the smallest and largest
+input's patient frame as the model records it (LPS for DICOM and NRRD: +x left, +y posterior,
++z superior; RAS for NIfTI: +x right, +y anterior, +z superior; a model that records no units,
+trained before they were recorded, is measured in plain units along x, y, z). Per class over the times: the smallest and largest
 volume and their times (ESV and EDV for a ventricle), the stroke volume, the ejection fraction
 (max − min) / max, and the centroid's peak-to-peak amplitude along left–right, anterior–
 posterior and superior–inferior. Values come from the closed meshes of the model's label
@@ -84,66 +84,11 @@ pub struct Measurement {
     pub colors: Vec<[u8; 3]>,
 }
 
-/// The input's units and patient frame: what the model records (`units = …`, `space = …`,
-/// [`dynaslice_model::ModelFile::units`]); for models written before those lines, from the
-/// input's file name (`input = PATH[ + PATH…]`, the first path's extension; a manifest's first
-/// entry): DICOM is LPS in mm, NIfTI and NRRD RAS in mm, anything else (`.csl`, native JSON)
-/// plain units in an unnamed frame. A model without either is taken as plain.
-pub fn units_and_frame(model: &Model) -> (Units, Frame) {
-    // What the model records of its input (models since the model service): its units and
-    // patient frame.
-    let recorded = |key: &str| {
-        model.metadata().lines().find_map(|l| {
-            let (k, v) = l.split_once('=')?;
-            (k.trim() == key).then(|| v.trim().to_string())
-        })
-    };
-    let units = recorded(Units::METADATA_KEY).and_then(|v| Units::from_name(&v));
-    let space = recorded(Space::METADATA_KEY).and_then(|v| Space::from_name(&v));
-    match (units, space) {
-        (Some(Units::Plain), _) => return (Units::Plain, Frame::Plain),
-        (Some(Units::Millimetres), Some(Space::Lps)) => return (Units::Millimetres, Frame::Lps),
-        (Some(Units::Millimetres), Some(Space::Ras)) => return (Units::Millimetres, Frame::Ras),
-        _ => {}
-    }
-    // Older models: from the input's file name.
-    let input = model
-        .metadata()
-        .lines()
-        .find_map(|l| l.strip_prefix("input = "))
-        .and_then(|v| v.split(" + ").next())
-        .map(PathBuf::from);
-    let Some(mut path) = input else {
-        return (Units::Plain, Frame::Plain);
-    };
-    let lower = |p: &Path| p.to_string_lossy().to_ascii_lowercase();
-    if [".seq", ".cslseq"]
-        .iter()
-        .any(|e| lower(&path).ends_with(e))
-    {
-        match manifest::read(&path) {
-            Ok(entries) if !entries.is_empty() => path = entries[0].path.clone(),
-            _ => {
-                log::warn!(
-                    "the manifest {} the model was trained on cannot be read; its units and \
-                     frame are unknown",
-                    path.display()
-                );
-                return (Units::Plain, Frame::Plain);
-            }
-        }
-    }
-    let name = lower(&path);
-    if name.ends_with(".dcm") {
-        (Units::Millimetres, Frame::Lps)
-    } else if [".nii", ".nii.gz", ".nrrd", ".nhdr"]
-        .iter()
-        .any(|e| name.ends_with(e))
-    {
-        (Units::Millimetres, Frame::Ras)
-    } else {
-        (Units::Plain, Frame::Plain)
-    }
+/// The input's units and patient frame, as the model's run record says
+/// ([`dynaslice_model::RunRecord`]: plain units and LPS where it records none).
+pub fn units_and_frame(file: &ModelFile) -> (Units, Frame) {
+    let units = file.units();
+    (units, Frame::of(units, file.space()))
 }
 
 /// The time axis's name for `frame`'s inputs: NIfTI frames are seconds apart
@@ -181,7 +126,7 @@ pub fn measure(file: &ModelFile, times: &[f64], resolution: u32) -> Result<Measu
     let progress = Progress::new("measuring: time", times.len() as u64);
     let motion = Motion::measure(&model, times, resolution, || progress.inc())?;
     progress.finish();
-    let (units, frame) = units_and_frame(&model);
+    let (units, frame) = units_and_frame(file);
     Ok(Measurement {
         motion,
         units,

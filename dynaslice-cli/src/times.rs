@@ -3,8 +3,8 @@
 //! time for it: the work is done once, with a note saying why, instead of N identical outputs.
 
 use super::console::errln;
-use super::model::ModelFile;
 use anyhow::Result;
+use dynaslice_model::ModelFile;
 use std::path::Path;
 
 /// The times to evaluate `file`'s model (read from `path`) at for `requested` (given with `option`): a moving
