@@ -3,13 +3,14 @@
 //! and tables, and its surfaces in 3D at several times.
 
 use super::console::errln;
-use super::measure::{self, time_axis, Measurement};
+use super::measure;
 use super::mesh::surfaces_at;
 use super::options::{count, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
 use anyhow::{Context, Result};
 use dynaslice_data::TimeSeries;
 use dynaslice_figures::plot::{class_chart, line_chart, Series};
 use dynaslice_figures::render3d::{self, RenderOptions, SurfacePanel};
+use dynaslice_metrics::measurement::{time_axis, Measurement};
 use dynaslice_metrics::motion::{round, Units};
 use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
