@@ -108,7 +108,10 @@ fn check_extents(args: &Args, file: &ModelFile) -> Result<()> {
             })
             .set_position(done as u64)
     })
-    .with_context(|| format!("{} against {}", args.model.display(), args.input.describe()))?;
+    .with_context(|| match &seq {
+        Some(_) => format!("{} against {}", args.model.display(), args.input.describe()),
+        None => args.model.display().to_string(),
+    })?;
     if let Some(p) = progress {
         p.finish();
     }
