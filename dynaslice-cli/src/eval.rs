@@ -5,7 +5,6 @@ use super::console::{errln, outln};
 use super::input::regular_file;
 use super::input::{self, InputArgs};
 use super::memory::{self, MemoryArgs};
-use super::model::ModelFile;
 use super::options::{
     count, finite_f32, time_series, MAX_CHAMFER_SAMPLES, MAX_IOU_RESOLUTION, MAX_MESH_RESOLUTION,
     MAX_PIXELS, MAX_TIMES,
@@ -23,10 +22,11 @@ use dynaslice_metrics::chamfer::{self, DEFAULT_SAMPLES};
 use dynaslice_metrics::heldout::{self, Split, DEFAULT_PIXELS};
 use dynaslice_metrics::volume::volume_curve_with;
 use dynaslice_metrics::Frames;
+use dynaslice_model::ModelFile;
 use dynaslice_output::write_atomically;
 use dynaslice_output::write_via;
 use dynaslice_output::{Kind, Plan};
-use dynaslice_sequence::{native, Units};
+use dynaslice_sequence::native;
 use dynaslice_synth::{BenchmarkOptions, Shape};
 use dynaslice_train::data_sampler::domain_for;
 use dynaslice_train::model_file::check_model_limits;
@@ -447,7 +447,7 @@ fn volume(a: VolumeArgs) -> Result<()> {
     progress.finish();
     // In the unit every command reports volumes in: mL for a model of millimetres, the input's
     // plain units³ otherwise.
-    let units = file.units().unwrap_or(Units::Plain);
+    let units = file.units();
     let mut curve = curve;
     for v in curve.volumes.iter_mut().flatten() {
         *v = units.from_world_volume(*v);

@@ -2,11 +2,11 @@
 
 use super::console::outln;
 use super::input::{self, InputArgs};
-use super::model::ModelFile;
 use super::progress::Progress;
 use anyhow::{Context, Result};
 use dynaslice_core::Weights;
 use dynaslice_metrics::extent;
+use dynaslice_model::ModelFile;
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice info`.
@@ -15,9 +15,10 @@ use std::path::PathBuf;
     // The training input is optional: without it the extent check has the model alone.
     mut_arg("inputs", |a| a.required(false)),
     after_help = "\
-Extent check: info meshes every class (at the model's time, or 5 times over a moving model's
-range) and warns of classes the data does not support. With the training input (INPUT…, read
-with the same options as when training), each class is compared with its own contours: a
+Extent check: info meshes every class (at a static model's time; a moving model's at up to 5
+of the input's frame times, as after training, or without the input 5 times over its range) and
+warns of classes the data does not support. With the training input (INPUT…, read with the same
+options as when training), the check is training's: each class is compared with its contours: a
 surface reaching past their box by more than half its longest side, or a volume over twice the
 box's, is reported. Without it, the model holds only its domain (the data's box plus a margin):
 a surface touching the domain's edge is reported, as it lies past every plane of the data.")]
@@ -27,9 +28,6 @@ pub struct Args {
     #[command(flatten)]
     input: InputArgs,
 }
-
-/// Times a moving model's extent is checked at, evenly over its range.
-const CHECK_TIMES: usize = 5;
 
 /// Runs `dynaslice info`: prints the model's size, layer widths, cost per point, world bounds,
 /// time range and ω_t^max (normalised time) of a moving model (a static one has no time axis),
@@ -92,46 +90,31 @@ pub fn run(args: Args) -> Result<()> {
     check_extents(&args, &file)
 }
 
-/// The extent check ([`dynaslice_metrics::extent`]): each class's surfaces against its contours
-/// in the input where given, and against the model's domain; the warnings on standard error, a
-/// summary line on standard output.
+/// The extent check ([`dynaslice_metrics::extent::check`]): each class's surfaces against its
+/// contours in the input where given, and against the model's domain; the warnings on standard
+/// error, a summary line on standard output.
 fn check_extents(args: &Args, file: &ModelFile) -> Result<()> {
     let model = file.model();
-    let times: Vec<f32> = if file.is_static() {
-        vec![model.domain().time_range().0]
-    } else {
-        let (t0, t1) = model.domain().time_range();
-        (0..CHECK_TIMES)
-            .map(|i| t0 + (t1 - t0) * i as f32 / (CHECK_TIMES - 1) as f32)
-            .collect()
-    };
     let seq = if args.input.inputs.is_empty() {
         None
     } else {
         Some(input::read(&args.input)?)
     };
-    let progress = Progress::new(
-        "extent check: meshing the classes, time",
-        times.len() as u64,
-    );
-    let extents = extent::class_extents(&model, &times, extent::DEFAULT_RESOLUTION, |i| {
-        progress.set_position(i as u64)
+    let mut progress: Option<Progress> = None;
+    let (times, warnings) = extent::check(&model, seq.as_ref(), |done, total| {
+        progress
+            .get_or_insert_with(|| {
+                Progress::new("extent check: meshing the classes, time", total as u64)
+            })
+            .set_position(done as u64)
+    })
+    .with_context(|| match &seq {
+        Some(_) => format!("{} against {}", args.model.display(), args.input.describe()),
+        None => args.model.display().to_string(),
     })?;
-    progress.finish();
-    let mut warnings = match &seq {
-        Some(seq) => extent::against_contours(
-            &extents,
-            &extent::contour_bounds(seq),
-            extent::DEFAULT_TOLERANCE,
-        )
-        .with_context(|| format!("{} against {}", args.model.display(), args.input.describe()))?,
-        None => Vec::new(),
-    };
-    warnings.extend(extent::against_domain(
-        &extents,
-        &model,
-        extent::cell(&model, extent::DEFAULT_RESOLUTION),
-    ));
+    if let Some(p) = progress {
+        p.finish();
+    }
     for w in &warnings {
         log::warn!("{}: {w}", args.model.display());
     }

@@ -4,9 +4,7 @@
 
 use super::console::errln;
 use super::input::regular_file;
-use super::measure::units_and_frame;
 use super::memory::{self, MemoryArgs};
-use super::model::ModelFile;
 use super::options::{
     count, f32_in, finite_f64, positive_f64, time_series, MAX_SAFETY, MAX_THREADS, MAX_TIMES,
 };
@@ -17,6 +15,7 @@ use dynaslice_core::Model;
 use dynaslice_data::nifti::read_geometry;
 use dynaslice_data::TimeSeries;
 use dynaslice_metrics::motion::Units;
+use dynaslice_model::ModelFile;
 use dynaslice_output::{Kind, Plan};
 use dynaslice_sequence::palette;
 use dynaslice_volume::{output_files, Evaluation, VoxelGrid, WriteOptions, DEFAULT_SAFETY};
@@ -188,7 +187,7 @@ pub fn run(a: Args) -> Result<()> {
     // colour each class has in every output; in mL where the input's units are millimetres.
     let voxel = grid.voxel_volume();
     let colors = file.class_colors();
-    let (units, _) = units_and_frame(&model);
+    let units = file.units();
     for ((k, class), color) in model.classes().enumerate().zip(colors) {
         let v = |f: usize| units.from_world_volume(counts[f][k + 1] as f64 * voxel);
         // Times come from f32 header fields: print them at that precision (1, not

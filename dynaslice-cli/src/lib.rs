@@ -17,7 +17,6 @@ mod man;
 mod measure;
 mod memory;
 mod mesh;
-mod model;
 mod options;
 mod picture;
 mod progress;

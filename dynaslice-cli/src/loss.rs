@@ -1,7 +1,6 @@
 //! The loss weights of Eq. 5–8 as command-line options, shared by `train` and `results`.
 
 use super::options::{non_negative_f32, MAX_WEIGHT};
-use dynaslice_train::loss::LossWeights;
 use dynaslice_train::spec::TrainSpec;
 use dynaslice_train::trainer::TrainOptions;
 
@@ -39,20 +38,6 @@ impl LossArgs {
             lambda_regulariser: Some(self.lambda_regulariser),
             alpha: Some(self.alpha),
             ..spec
-        }
-    }
-
-    /// The weights; `orientation: false` is the ablation `--no-orientation` (λ_n = 0).
-    pub fn weights(&self, orientation: bool) -> LossWeights {
-        LossWeights {
-            orientation: if orientation {
-                self.lambda_orientation
-            } else {
-                0.0
-            },
-            plane: self.lambda_plane,
-            regulariser: self.lambda_regulariser,
-            alpha: self.alpha,
         }
     }
 }

@@ -3,24 +3,22 @@
 //! the ITV (dynaslice_metrics::itv) as label volumes and meshes.
 
 use super::console::{errln, outln};
-use super::model::ModelFile;
 use super::options::{count, positive_f64, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
 use super::progress::Progress;
 use super::times::times_option;
 use anyhow::{Context, Result};
-use dynaslice_core::Model;
 use dynaslice_data::color_table::{table_paths, write_tables};
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
-use dynaslice_data::{manifest, ClassInfo, TimeSeries};
+use dynaslice_data::{ClassInfo, TimeSeries};
 use dynaslice_mesh::io::{self as mesh_io, class_tag, Format, MeshInfo, Space};
 use dynaslice_metrics::itv::{itv_masks, itv_meshes};
-use dynaslice_metrics::motion::{round, Cycle, Frame, Motion, Units};
+use dynaslice_metrics::measurement::{Described, Measurement};
+use dynaslice_metrics::motion::{round, Frame, Units};
+use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
 use dynaslice_output::{Kind, Plan};
-use dynaslice_sequence::palette;
 use dynaslice_volume::VoxelGrid;
-use serde_json::{json, Value};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Times measured by default over a moving model's time range.
 const DEFAULT_TIMES: usize = 21;
@@ -30,8 +28,9 @@ const DEFAULT_TIMES: usize = 21;
 #[command(after_help = "\
 Per class and time: the volume (mL where the input was in millimetres: DICOM, NIfTI, NRRD;
 the input's plain units³ for .csl and native JSON), the centroid and the bounding box in the
-input's patient frame (LPS for DICOM: +x left, +y posterior, +z superior; RAS for NIfTI and
-NRRD: +x right, +y anterior, +z superior). Per class over the times: the smallest and largest
+input's patient frame as the model records it (LPS for DICOM and NRRD: +x left, +y posterior,
++z superior; RAS for NIfTI: +x right, +y anterior, +z superior; a model that records no units,
+trained before they were recorded, is measured in plain units along x, y, z). Per class over the times: the smallest and largest
 volume and their times (ESV and EDV for a ventricle), the stroke volume, the ejection fraction
 (max − min) / max, and the centroid's peak-to-peak amplitude along left–right, anterior–
 posterior and superior–inferior. Values come from the closed meshes of the model's label
@@ -72,90 +71,11 @@ pub struct Args {
     force: bool,
 }
 
-/// A model measured at its times, with what the numbers mean.
-pub struct Measurement {
-    /// The figures, in the model's RAS world and units.
-    pub motion: Motion,
-    /// The input's units.
-    pub units: Units,
-    /// The input's patient frame.
-    pub frame: Frame,
-    /// Names, source labels and recorded colours, channel order.
-    pub classes: Vec<ClassInfo>,
-    /// Display colour per class (recorded or the palette's).
-    pub colors: Vec<[u8; 3]>,
-}
-
-/// The input's units and patient frame: what the model records (`units = …`, `space = …`,
-/// [`dynaslice_model::ModelFile::units`]); for models written before those lines, from the
-/// input's file name (`input = PATH[ + PATH…]`, the first path's extension; a manifest's first
-/// entry): DICOM is LPS in mm, NIfTI and NRRD RAS in mm, anything else (`.csl`, native JSON)
-/// plain units in an unnamed frame. A model without either is taken as plain.
-pub fn units_and_frame(model: &Model) -> (Units, Frame) {
-    // What the model records of its input (models since the model service): its units and
-    // patient frame.
-    let recorded = |key: &str| {
-        model.metadata().lines().find_map(|l| {
-            let (k, v) = l.split_once('=')?;
-            (k.trim() == key).then(|| v.trim().to_string())
-        })
-    };
-    let units = recorded(Units::METADATA_KEY).and_then(|v| Units::from_name(&v));
-    let space = recorded(Space::METADATA_KEY).and_then(|v| Space::from_name(&v));
-    match (units, space) {
-        (Some(Units::Plain), _) => return (Units::Plain, Frame::Plain),
-        (Some(Units::Millimetres), Some(Space::Lps)) => return (Units::Millimetres, Frame::Lps),
-        (Some(Units::Millimetres), Some(Space::Ras)) => return (Units::Millimetres, Frame::Ras),
-        _ => {}
-    }
-    // Older models: from the input's file name.
-    let input = model
-        .metadata()
-        .lines()
-        .find_map(|l| l.strip_prefix("input = "))
-        .and_then(|v| v.split(" + ").next())
-        .map(PathBuf::from);
-    let Some(mut path) = input else {
-        return (Units::Plain, Frame::Plain);
-    };
-    let lower = |p: &Path| p.to_string_lossy().to_ascii_lowercase();
-    if [".seq", ".cslseq"]
-        .iter()
-        .any(|e| lower(&path).ends_with(e))
-    {
-        match manifest::read(&path) {
-            Ok(entries) if !entries.is_empty() => path = entries[0].path.clone(),
-            _ => {
-                log::warn!(
-                    "the manifest {} the model was trained on cannot be read; its units and \
-                     frame are unknown",
-                    path.display()
-                );
-                return (Units::Plain, Frame::Plain);
-            }
-        }
-    }
-    let name = lower(&path);
-    if name.ends_with(".dcm") {
-        (Units::Millimetres, Frame::Lps)
-    } else if [".nii", ".nii.gz", ".nrrd", ".nhdr"]
-        .iter()
-        .any(|e| name.ends_with(e))
-    {
-        (Units::Millimetres, Frame::Ras)
-    } else {
-        (Units::Plain, Frame::Plain)
-    }
-}
-
-/// The time axis's name for `frame`'s inputs: NIfTI frames are seconds apart
-/// (`pixdim[4]`), a DICOM manifest's times are its own (often % of the breathing cycle).
-pub fn time_axis(frame: Frame) -> &'static str {
-    match frame {
-        Frame::Ras => "time (s)",
-        Frame::Lps => "time (manifest)",
-        Frame::Plain => "time",
-    }
+/// The input's units and patient frame, as the model's run record says
+/// ([`dynaslice_model::RunRecord`]: plain units and LPS where it records none).
+pub fn units_and_frame(file: &ModelFile) -> (Units, Frame) {
+    let units = file.units();
+    (units, Frame::of(units, file.space()))
 }
 
 /// `times`, checked against the model's range, or the default: 21 times over a moving
@@ -178,108 +98,25 @@ pub fn times_of(file: &ModelFile, times: Option<TimeSeries>) -> Result<Vec<f64>>
     Ok(times)
 }
 
-/// Measures every class of `file` at `times` with meshes of `resolution` cells.
+/// Measures every class of `file` at `times` with meshes of `resolution` cells, in the units
+/// and frame its run record gives.
 pub fn measure(file: &ModelFile, times: &[f64], resolution: u32) -> Result<Measurement> {
-    let model = file.model();
     let progress = Progress::new("measuring: time", times.len() as u64);
-    let motion = Motion::measure(&model, times, resolution, || progress.inc())?;
+    let (units, frame) = units_and_frame(file);
+    let m = Measurement::measure(
+        &file.model(),
+        times,
+        resolution,
+        Described {
+            units,
+            frame,
+            classes: file.classes(),
+            colors: file.class_colors(),
+        },
+        || progress.inc(),
+    )?;
     progress.finish();
-    let (units, frame) = units_and_frame(&model);
-    Ok(Measurement {
-        motion,
-        units,
-        frame,
-        classes: file.classes(),
-        colors: file.class_colors(),
-    })
-}
-
-impl Measurement {
-    /// Source labels, channel order.
-    pub fn labels(&self) -> Vec<i32> {
-        self.classes.iter().map(|c| c.label).collect()
-    }
-
-    /// The per-time CSV table.
-    pub fn to_csv(&self) -> String {
-        self.motion.to_csv(&self.labels(), self.units, self.frame)
-    }
-
-    /// Class `k`'s figures over the times.
-    pub fn cycle(&self, k: usize) -> Cycle {
-        self.motion.cycle(k)
-    }
-
-    /// A world volume in the reported unit, rounded as every output prints it.
-    pub fn volume(&self, v: f64) -> f64 {
-        round(self.units.from_world_volume(v))
-    }
-
-    /// Everything as one JSON object (`classes[k]`: `name`, `label`, `color`, `volume_ml` per
-    /// time, `amplitude_mm` {`lr`, `ap`, `si`}, `ejection_fraction`, …), numbers rounded as in
-    /// the CSV. Where the units are not millimetres, `volume_ml` and `amplitude_mm` are null and
-    /// `volume` and `amplitude` hold the plain values.
-    pub fn to_json(&self, model: &Path) -> Value {
-        let m = &self.motion;
-        let mm = self.units == Units::Millimetres;
-        let point = |p: Option<[f64; 3]>| p.map(|p| self.frame.from_world(p).map(round));
-        let classes: Vec<Value> = self
-            .classes
-            .iter()
-            .enumerate()
-            .map(|(k, c)| {
-                let cycle = m.cycle(k);
-                let volumes: Vec<f64> = m.shapes.iter().map(|s| self.volume(s[k].volume)).collect();
-                let amplitude = cycle.amplitude.map(|a| a.map(round));
-                let anatomical = amplitude
-                    .filter(|_| self.frame.is_anatomical())
-                    .map(|[lr, ap, si]| json!({"lr": lr, "ap": ap, "si": si}));
-                let boxes: Vec<Option<Value>> = m
-                    .shapes
-                    .iter()
-                    .map(|s| {
-                        s[k].bounds.map(|(lo, hi)| {
-                            let (a, b) = (self.frame.from_world(lo), self.frame.from_world(hi));
-                            let min: [f64; 3] = std::array::from_fn(|i| round(a[i].min(b[i])));
-                            let max: [f64; 3] = std::array::from_fn(|i| round(a[i].max(b[i])));
-                            json!({"min": min, "max": max})
-                        })
-                    })
-                    .collect();
-                let centroids: Vec<Option<[f64; 3]>> =
-                    m.shapes.iter().map(|s| point(s[k].centroid)).collect();
-                json!({
-                    "name": c.name,
-                    "label": c.label,
-                    "color": palette::to_hex(self.colors[k]),
-                    "volume": volumes,
-                    "volume_ml": if mm { json!(volumes) } else { Value::Null },
-                    "centroid": centroids,
-                    "bounding_box": boxes,
-                    "min_volume": {"volume": self.volume(cycle.min.volume), "time": cycle.min.time},
-                    "max_volume": {"volume": self.volume(cycle.max.volume), "time": cycle.max.time},
-                    "stroke_volume": self.volume(cycle.stroke_volume),
-                    "ejection_fraction": cycle.ejection_fraction.map(round),
-                    "amplitude": amplitude.map(|[x, y, z]| json!({"x": x, "y": y, "z": z})),
-                    "amplitude_mm": if mm { anatomical.unwrap_or(Value::Null) } else { Value::Null },
-                })
-            })
-            .collect();
-        json!({
-            "model": model.display().to_string(),
-            "units": {
-                "length": self.units.length(),
-                "volume": self.units.volume(),
-                "time": time_axis(self.frame),
-            },
-            "frame": {
-                "name": self.frame.name(),
-                "positive": self.frame.positive(),
-            },
-            "times": m.times,
-            "classes": classes,
-        })
-    }
+    Ok(m)
 }
 
 /// Runs `dynaslice measure`.

@@ -4,7 +4,6 @@
 
 use super::console::errln;
 use super::memory::{self, MemoryArgs};
-use super::model::ModelFile;
 use super::options::{
     count, f32_in, finite_f32, time_series, MAX_MESH_RESOLUTION, MAX_NEWTON_STEPS, MAX_SAFETY,
     MAX_THREADS, MAX_TIMES,
@@ -17,6 +16,7 @@ use dynaslice_data::TimeSeries;
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_mesh::{self as mesh, Extraction, Options, Sampling, Surfaces, DEFAULT_SAFETY};
+use dynaslice_model::ModelFile;
 use dynaslice_output::{Kind, Plan};
 use std::path::PathBuf;
 use std::time::Instant;

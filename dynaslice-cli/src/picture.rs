@@ -4,7 +4,6 @@
 use super::console::errln;
 use super::input::{self, InputArgs};
 use super::mesh::surfaces_at;
-use super::model::ModelFile;
 use super::options::{count, time_series, MAX_MESH_RESOLUTION};
 use super::progress::Progress;
 use super::times::{model_times, note, times_option};
@@ -15,6 +14,7 @@ use dynaslice_figures::picture::{match_classes, plane_labels, Panel};
 use dynaslice_figures::render3d::{self, Camera, RenderOptions, SurfacePanel};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_mesh::Options;
+use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
 use dynaslice_output::{Kind, Plan};
 use std::path::PathBuf;
@@ -342,7 +342,7 @@ pub fn run(a: Args) -> Result<()> {
         panels.len() as u64,
     );
     // Ticks, scale bar and plane position in the input's unit (mm for DICOM, NIfTI, NRRD).
-    let unit = file.units().map_or("world units", |u| u.length());
+    let unit = file.units().length();
     write_via(&a.output, |tmp| {
         plane_labels(
             &model,

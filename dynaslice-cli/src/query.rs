@@ -1,10 +1,10 @@
 //! `dynaslice query MODEL X Y Z [T]`.
 
 use super::console::outln;
-use super::model::ModelFile;
 use super::options::finite_f32;
 use anyhow::Result;
 use dynaslice_core::UNDEFINED_LABEL;
+use dynaslice_model::ModelFile;
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice query`.

@@ -3,16 +3,16 @@
 //! and tables, and its surfaces in 3D at several times.
 
 use super::console::errln;
-use super::measure::{self, time_axis, Measurement};
+use super::measure;
 use super::mesh::surfaces_at;
-use super::model::ModelFile;
 use super::options::{count, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
 use anyhow::{Context, Result};
-use dynaslice_core::Model;
 use dynaslice_data::TimeSeries;
 use dynaslice_figures::plot::{class_chart, line_chart, Series};
 use dynaslice_figures::render3d::{self, RenderOptions, SurfacePanel};
+use dynaslice_metrics::measurement::{time_axis, Measurement};
 use dynaslice_metrics::motion::{round, Units};
+use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
 use dynaslice_output::{Kind, Plan};
 use dynaslice_report::{Block, Cell, Document, Section, Table};
@@ -57,7 +57,6 @@ pub fn run(a: Args) -> Result<()> {
     let mut plan = Plan::new([&a.model, &loss_csv], true);
     plan.file("-o", &a.output, Kind::Html)?;
     let file = ModelFile::open(&a.model)?;
-    let model = file.model();
     let times = measure::times_of(&file, a.times)?;
     let m = measure::measure(&file, &times, a.resolution)?;
     // Figures are drawn by dynaslice-figures into files; they are read back and inlined.
@@ -69,8 +68,8 @@ pub fn run(a: Args) -> Result<()> {
     };
     let name = a.model.display().to_string();
     let mut sections = vec![
-        input_section(&model, &m),
-        training_section(&model, &loss_csv, &figure)?,
+        input_section(&file, &m),
+        training_section(&file, &loss_csv, &figure)?,
         classes_section(&m),
         figures_section(&m, &figure)?,
     ];
@@ -109,23 +108,10 @@ fn file_name(path: &Path) -> String {
     )
 }
 
-/// The model's `key = value` metadata lines, in order.
-fn metadata(model: &Model) -> Vec<(String, String)> {
-    model
-        .metadata()
-        .lines()
-        .filter_map(|l| l.split_once(" = "))
-        .map(|(k, v)| (k.trim().to_string(), v.trim().to_string()))
-        .collect()
-}
-
-fn input_section(model: &Model, m: &Measurement) -> Section {
-    let meta = metadata(model);
-    let get = |key: &str| {
-        meta.iter()
-            .find(|(k, _)| k == key)
-            .map_or("not recorded".to_string(), |(_, v)| v.clone())
-    };
+fn input_section(file: &ModelFile, m: &Measurement) -> Section {
+    let model = file.model();
+    let record = file.record();
+    let get = |value: &Option<String>| value.clone().unwrap_or_else(|| "not recorded".into());
     let (lo, hi) = model.domain().bounds();
     let (t0, t1) = model.domain().time_range();
     let l = m.units.length();
@@ -133,8 +119,8 @@ fn input_section(model: &Model, m: &Measurement) -> Section {
     Section {
         heading: "Input".into(),
         blocks: vec![Block::Facts(vec![
-            ("trained on".into(), get("input")),
-            ("frames".into(), get("frames")),
+            ("trained on".into(), get(&record.input)),
+            ("frames".into(), get(&record.frames)),
             (
                 "units".into(),
                 match m.units {
@@ -159,8 +145,10 @@ fn input_section(model: &Model, m: &Measurement) -> Section {
     }
 }
 
-fn training_section(model: &Model, loss_csv: &Path, figure: &Figure) -> Result<Section> {
-    let facts: Vec<(String, String)> = metadata(model)
+fn training_section(file: &ModelFile, loss_csv: &Path, figure: &Figure) -> Result<Section> {
+    let facts: Vec<(String, String)> = file
+        .record()
+        .entries()
         .into_iter()
         .filter(|(k, _)| !["input", "frames", "class_colors"].contains(&k.as_str()))
         .collect();

@@ -5,7 +5,6 @@
 
 use super::console::errln;
 use super::input::regular_file;
-use super::model::ModelFile;
 use super::options::{count, positive_f64, positive_f64_to, time_series, MAX_THREADS, MAX_TIMES};
 use super::progress::Progress;
 use super::times::times_option;
@@ -22,6 +21,7 @@ use dynaslice_data::{manifest, FrameRange, Plane, Rect, TimeSeries};
 use dynaslice_geometry::Polygon;
 use dynaslice_mesh::planar::{contour_plane, PlanarOptions, PlaneField, Union, EVERYWHERE};
 use dynaslice_mesh::{LevelSets, Surfaces};
+use dynaslice_model::ModelFile;
 use dynaslice_output::Plan;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -234,14 +234,9 @@ fn input_times(file: &ModelFile, model: &Model, path: &Path) -> Result<Vec<f64>>
     if file.is_static() {
         return Ok(vec![f64::from(model.domain().time_range().0)]);
     }
-    let value = |key: &str| {
-        model.metadata().lines().find_map(|l| {
-            let (k, v) = l.split_once('=')?;
-            (k.trim() == key).then(|| v.trim().to_string())
-        })
-    };
+    let record = file.record();
     let give_times = "give --times A:B:N";
-    let input = value("input").ok_or_else(|| {
+    let input = record.input.clone().ok_or_else(|| {
         anyhow!(
             "{}: the model records no training input; {give_times}",
             path.display()
@@ -266,7 +261,7 @@ fn input_times(file: &ModelFile, model: &Model, path: &Path) -> Result<Vec<f64>>
             distinct.push(e.time);
         }
     }
-    let frames: FrameRange = match value("frames") {
+    let frames: FrameRange = match &record.frames {
         Some(f) => f
             .parse()
             .map_err(|e| anyhow!("{}: recorded frames: {e}", path.display()))?,

@@ -3,9 +3,9 @@
 //! time for it: the work is done once, with a note saying why, instead of N identical outputs.
 
 use super::console::errln;
-use super::model::ModelFile;
 use anyhow::Result;
 use dynaslice_data::TimeSeries;
+use dynaslice_model::ModelFile;
 use std::path::Path;
 
 /// How a message names one time of `--times`: with the series as the user typed it, so that a

@@ -89,7 +89,7 @@ pub struct Args {
     /// 0.87–0.91 on the TotalSegmentator CT. At 30 add `--warmup-steps 100`: without it,
     /// models measured there collapsed into spurious insides in some seeds. 15-plane `.csl`
     /// inputs and the moving synthetic chambers lose at 30 (docs/training.md, "When to change
-    /// ω₀"; the measurements are in lab/notes/training.md and lab/notes/2026-12-04-omega.md).
+    /// ω₀").
     #[arg(long, default_value_t = TrainOptions::default().omega_0,
           value_parser = positive_f32(MAX_OMEGA_0), allow_negative_numbers = true)]
     omega0: f32,
@@ -110,9 +110,8 @@ pub struct Args {
     ///
     /// Worth it at `--omega0 30`, where the first full-size steps can turn large regions of a
     /// channel inside: with 100 steps and the default `--init-offset` every model measured
-    /// there was stable (docs/training.md, "When to change ω₀, and the learning-rate warm-up";
-    /// the runs are in lab/notes/training.md, "Learning-rate warm-up"). At the default ω₀ it is
-    /// not needed.
+    /// there was stable (docs/training.md, "When to change ω₀, and the learning-rate
+    /// warm-up"). At the default ω₀ it is not needed.
     #[arg(long, default_value_t = TrainOptions::default().warmup_steps,
           value_parser = count(0, MAX_STEPS))]
     warmup_steps: u64,

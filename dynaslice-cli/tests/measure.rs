@@ -54,7 +54,7 @@ fn csv_rows(path: &Path) -> Vec<Vec<String>> {
 }
 
 const NIFTI_INPUT: &str = "trainer = dynaslice 0.1.0\ninput = scan.nii.gz\nframes = 0:2:1\n\
-                           steps_done = 3\nfinal_loss = 0.01\n";
+                           space = RAS\nunits = mm\nsteps_done = 3\nfinal_loss = 0.01\n";
 const TIMES: &str = "0:2:5";
 
 #[test]
@@ -152,7 +152,7 @@ fn measure_writes_mm_figures_csv_json_and_itv() {
 }
 
 #[test]
-fn plain_inputs_say_so_and_dicom_inputs_are_lps() {
+fn plain_inputs_say_so_and_recorded_lps_inputs_are_lps() {
     let dir = tempfile::tempdir().unwrap();
     let plain = write_model(dir.path(), "plain.dsm", "input = slices.csl\n");
     let out = dynaslice(&[
@@ -172,7 +172,27 @@ fn plain_inputs_say_so_and_dicom_inputs_are_lps() {
     assert!(json["classes"][0]["volume"][0].as_f64().unwrap() > 100.0);
     assert!(String::from_utf8_lossy(&out.stderr).contains("plain input units"));
 
-    let dicom = write_model(dir.path(), "rt.dsm", "input = RS.dcm\n");
+    // A model written before the units and frame were recorded is plain, whatever its
+    // input's name (dynaslice_model::RunRecord's one rule: nothing is guessed).
+    let old = write_model(dir.path(), "old.dsm", "input = RS.dcm\n");
+    let out = dynaslice(&[
+        "measure",
+        s(&old),
+        "--times",
+        TIMES,
+        "--resolution",
+        "48",
+        "--json",
+    ]);
+    let json: Value = serde_json::from_str(&succeeded(&out)).unwrap();
+    assert_eq!(json["frame"]["name"], "xyz");
+    assert_eq!(json["units"]["length"], "units");
+
+    let dicom = write_model(
+        dir.path(),
+        "rt.dsm",
+        "input = RS.dcm\nspace = LPS\nunits = mm\n",
+    );
     let csv = dir.path().join("lps.csv");
     let args = [
         "measure",

@@ -491,3 +491,33 @@ mod writer {
         }
     }
 }
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    // Here rather than in model.rs: the model's tests need the writer, which needs the model,
+    // and the core keeps no file circle, tests included (tests/architecture.rs).
+    use super::ModelWriter;
+    use crate::ModelBytes;
+    use std::string::ToString;
+    use std::vec;
+
+    #[test]
+    fn find_class_takes_numbers_first_then_names() {
+        let mut w = ModelWriter::random_siren(&[8], 3, 1);
+        w.classes = vec![
+            ("liver".to_string(), 5),
+            ("3".to_string(), 7),
+            ("lung left".to_string(), 2),
+        ];
+        let bytes = ModelBytes::copy_from(&w.to_bytes());
+        let m = bytes.model().unwrap();
+        assert_eq!(m.find_class("1"), Some(0));
+        assert_eq!(m.find_class("3"), Some(2), "a number wins over a name");
+        assert_eq!(m.find_class("lung left"), Some(2));
+        assert_eq!(m.find_class("liver"), Some(0));
+        assert_eq!(m.find_class("0"), None);
+        assert_eq!(m.find_class("4"), None);
+        assert_eq!(m.find_class("Liver"), None);
+        assert_eq!(m.find_class(""), None);
+    }
+}

@@ -15,7 +15,7 @@
 //!
 //! With the `std` feature, batch evaluation picks AVX2 or AVX-512 kernels at run time
 //! ([`cpu::Level`]), and models can be written ([`format::ModelWriter`]) and held in aligned
-//! owned storage ([`ModelBytes`]).
+//! owned storage ([`ModelBytes`]), validated once ([`OwnedModel`]).
 //!
 //! ```
 //! # #[cfg(feature = "std")] {
@@ -59,7 +59,7 @@ pub use label::{argmin_label, UNDEFINED_LABEL};
 pub use layout::Layout;
 pub use model::{Model, Weights};
 #[cfg(feature = "std")]
-pub use model_bytes::ModelBytes;
+pub use model_bytes::{ModelBytes, OwnedModel};
 
 /// Name of the batch kernels this CPU gets ("avx512", "avx2" or "portable").
 pub fn kernel_name() -> &'static str {

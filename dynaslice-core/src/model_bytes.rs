@@ -99,6 +99,72 @@ impl core::fmt::Debug for ModelBytes {
     }
 }
 
+/// A model file in owned aligned storage, validated once (CRC, every weight) when made, and the
+/// [`Model`] view into it: the one owned model type of the `std` side (the model service, the
+/// Python package and the C ABI hold it). [`OwnedModel::model`] costs nothing, however often
+/// it is called.
+pub struct OwnedModel {
+    /// Borrows `*storage`. The `'static` is a private lie made sound by the ownership below:
+    /// the borrow is never handed out with a lifetime longer than `&self`, see
+    /// [`OwnedModel::model`].
+    model: Model<'static>,
+    /// The model bytes, from `Box::into_raw`, freed in `Drop`. Held as a raw pointer rather than
+    /// as a `ModelBytes` (or a `Box` of one) so that moving an `OwnedModel` never moves the
+    /// `Box` inside `ModelBytes`, which would assert unique ownership of memory that `model`
+    /// still borrows under Rust's aliasing rules.
+    storage: *mut ModelBytes,
+}
+
+// SAFETY: `storage` is only written when dropped (with `&mut self`), and `Model` and
+// `ModelBytes` are `Sync` and `Send`: the raw pointer is all that stops the compiler from
+// deriving these.
+unsafe impl Send for OwnedModel {}
+// SAFETY: as above; every method takes `&self` and only reads.
+unsafe impl Sync for OwnedModel {}
+
+impl OwnedModel {
+    /// Validates `bytes` ([`Model::from_bytes`]) and keeps them with their view.
+    pub fn new(bytes: ModelBytes) -> Result<OwnedModel, Error> {
+        let storage = Box::into_raw(Box::new(bytes));
+        // SAFETY: `storage` is a live allocation that nothing else references and nothing
+        // writes; it is freed only by `Drop`, after the last use of `model`.
+        let view: &'static ModelBytes = unsafe { &*storage };
+        match view.model() {
+            Ok(model) => Ok(OwnedModel { model, storage }),
+            Err(e) => {
+                // SAFETY: from `Box::into_raw` above; `view` is not used after this.
+                drop(unsafe { Box::from_raw(storage) });
+                Err(e)
+            }
+        }
+    }
+
+    /// The model, borrowed no longer than `self` (which owns its bytes).
+    pub fn model(&self) -> &Model<'_> {
+        &self.model
+    }
+
+    /// The file's bytes.
+    pub fn bytes(&self) -> &ModelBytes {
+        // SAFETY: `storage` is live until `Drop` and only ever read.
+        unsafe { &*self.storage }
+    }
+}
+
+impl Drop for OwnedModel {
+    fn drop(&mut self) {
+        // SAFETY: `storage` came from `Box::into_raw` in `new` and is freed only here; `model`
+        // (a plain view without `Drop`) is never used again.
+        drop(unsafe { Box::from_raw(self.storage) });
+    }
+}
+
+impl core::fmt::Debug for OwnedModel {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "OwnedModel({} bytes)", self.bytes().len())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -113,6 +179,27 @@ mod tests {
         assert_eq!(bytes.as_ptr() as usize % 8, 0);
         assert_eq!(&bytes[..], &file[..]);
         assert_eq!(bytes.model().unwrap().num_classes(), 2);
+    }
+
+    /// Validation happens once, in `new`: a bad file is refused there, and the view of a good
+    /// one outlives moves of its owner.
+    #[test]
+    fn owned_models_validate_once_and_move_freely() {
+        let file = ModelWriter::random_siren(&[8, 8], 3, 5).to_bytes();
+        let mut bad = file.clone();
+        bad[300] ^= 1;
+        assert!(matches!(
+            OwnedModel::new(ModelBytes::copy_from(&bad)),
+            Err(Error::CrcMismatch { .. })
+        ));
+        let owned = OwnedModel::new(ModelBytes::copy_from(&file)).unwrap();
+        let moved = std::vec![owned];
+        let owned = &moved[0];
+        assert_eq!(owned.model().num_classes(), 3);
+        assert_eq!(&owned.bytes()[..], &file[..]);
+        let mut f = [0.0f32; 3];
+        owned.model().eval([0.1, 0.2, 0.3], 0.5, &mut f).unwrap();
+        assert!(f.iter().all(|v| v.is_finite()));
     }
 
     #[test]

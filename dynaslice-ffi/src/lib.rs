@@ -22,7 +22,7 @@
 #![warn(missing_docs)]
 
 use core::ffi::{c_char, c_int, CStr};
-use dynaslice_core::{format, Error, Model, ModelBytes, Scratch};
+use dynaslice_core::{format, Error, Model, ModelBytes, OwnedModel, Scratch};
 use std::cell::RefCell;
 use std::ffi::CString;
 use std::mem::{align_of, size_of};
@@ -78,52 +78,22 @@ const _: () = {
 /// `ds_model_free`. Immutable after loading: any number of threads may query one model at once.
 //
 // Inside: the model bytes (8-byte aligned) and a validated `Model` view into them, so queries
-// never re-validate.
+// never re-validate (`OwnedModel`, the one owned model type of every front end).
 pub struct DsModel {
-    /// Borrows `*storage`. The `'static` is a private lie made sound by the ownership below:
-    /// the borrow is never handed out with a lifetime longer than `&self`, see [`Self::model`].
-    model: Model<'static>,
-    /// The model bytes, from `Box::into_raw`, freed in `Drop`. Held as a raw pointer rather than
-    /// as a `ModelBytes` (or a `Box` of one) so that moving a `DsModel` never moves the `Box`
-    /// inside `ModelBytes`, which would assert unique ownership of memory that `model` still
-    /// borrows under Rust's aliasing rules.
-    storage: *mut ModelBytes,
+    owned: OwnedModel,
 }
 
-// SAFETY: `storage` is only written when dropped (with `&mut self`), and `Model` is `Sync` and
-// `Send`: the raw pointer is all that stops the compiler from deriving these.
-unsafe impl Send for DsModel {}
-// SAFETY: as above; every query takes `&self` and only reads.
-unsafe impl Sync for DsModel {}
-
 impl DsModel {
-    /// Copies `bytes` (any alignment) into owned aligned storage and validates it.
-    fn from_bytes(bytes: &[u8]) -> Result<DsModel, Failure> {
-        let storage = Box::into_raw(Box::new(ModelBytes::copy_from(bytes)));
-        // SAFETY: `storage` is a live allocation that nothing else references and nothing
-        // writes; it is freed only by `Drop`, after the last use of `model`.
-        let view: &'static ModelBytes = unsafe { &*storage };
-        match view.model() {
-            Ok(model) => Ok(DsModel { model, storage }),
-            Err(e) => {
-                // SAFETY: from `Box::into_raw` above; `view` is not used after this.
-                drop(unsafe { Box::from_raw(storage) });
-                Err(Failure::model(e))
-            }
-        }
+    /// Validates `bytes` and keeps them.
+    fn new(bytes: ModelBytes) -> Result<DsModel, Failure> {
+        OwnedModel::new(bytes)
+            .map(|owned| DsModel { owned })
+            .map_err(Failure::model)
     }
 
     /// The model, borrowed no longer than `self` (which owns its bytes).
     fn model(&self) -> &Model<'_> {
-        &self.model
-    }
-}
-
-impl Drop for DsModel {
-    fn drop(&mut self) {
-        // SAFETY: `storage` came from `Box::into_raw` in `from_bytes` and is freed only here;
-        // `model` (a plain view without `Drop`) is never used again.
-        drop(unsafe { Box::from_raw(self.storage) });
+        self.owned.model()
     }
 }
 
@@ -404,7 +374,7 @@ pub unsafe extern "C" fn ds_model_open(path: *const c_char, out: *mut *mut DsMod
             };
             Failure::new(code, format!("cannot read {}: {e}", path.display()))
         })?;
-        DsModel::from_bytes(&bytes)
+        DsModel::new(bytes)
     };
     // SAFETY: `out` is forwarded under this function's contract.
     unsafe { load("ds_model_open", out, read) }
@@ -434,7 +404,8 @@ pub unsafe extern "C" fn ds_model_from_bytes(
                 format!("{len} bytes is larger than any model"),
             ));
         }
-        DsModel::from_bytes(bytes)
+        // Copied (any alignment) into owned aligned storage.
+        DsModel::new(ModelBytes::copy_from(bytes))
     };
     // SAFETY: `out` is forwarded under this function's contract.
     unsafe { load("ds_model_from_bytes", out, copy) }
@@ -1265,7 +1236,7 @@ mod tests {
         let bytes = w.to_bytes();
         assert!(bytes.len() as u64 <= format::max_file_size());
         assert!(format::max_file_size() - (bytes.len() as u64) < format::WEIGHT_ALIGN as u64);
-        assert!(DsModel::from_bytes(&bytes).is_ok());
+        assert!(DsModel::new(ModelBytes::copy_from(&bytes)).is_ok());
     }
 
     #[test]

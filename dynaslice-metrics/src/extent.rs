@@ -272,43 +272,68 @@ pub fn cell(model: &Model, resolution: u32) -> f64 {
     f64::from(longest) / f64::from(resolution.max(1))
 }
 
-/// Frames of the input [`check_model`] meshes at most.
+/// Times [`check`] meshes at most.
 pub const CHECK_FRAMES: usize = 5;
 
-/// The checks of a model against the input `seq` it was trained on (the same classes in the
-/// same order): its classes' surfaces at up to [`CHECK_FRAMES`] frame times of `seq` (a static
-/// model's one time)
-/// at [`DEFAULT_RESOLUTION`], against their contours ([`against_contours`] with
-/// [`DEFAULT_TOLERANCE`]) and the domain's edge ([`against_domain`]). For a command to print
-/// after training or in `dynaslice info --input`.
-/// `progress` is called with (times meshed, times to mesh) before the first and after each.
-pub fn check_model(
-    model: &Model,
-    seq: &Sequence,
-    mut progress: impl FnMut(usize, usize),
-) -> Result<Vec<Warning>> {
-    let mut times: Vec<f32> = seq.frames().iter().map(|f| f.time as f32).collect();
+/// The times the extent check meshes `model` at: a static model's one time; else up to
+/// [`CHECK_FRAMES`] frame times of its input `seq` where given, evenly spread (first and last
+/// included: a cycle's spurious structure shows at any of its frames), or [`CHECK_FRAMES`]
+/// times evenly over the model's time range without it.
+pub fn check_times(model: &Model, seq: Option<&Sequence>) -> Vec<f32> {
+    let (t0, t1) = model.domain().time_range();
     if model.omega_t_max() == 0.0 {
-        times.truncate(1);
+        return vec![t0];
     }
-    // At most CHECK_FRAMES of them, evenly spread (first and last included): the check meshes
-    // every class at each, and a cycle's spurious structure shows at any of its frames.
-    if times.len() > CHECK_FRAMES {
-        let n = times.len() - 1;
-        times = (0..CHECK_FRAMES)
-            .map(|i| times[i * n / (CHECK_FRAMES - 1)])
+    let Some(seq) = seq else {
+        return (0..CHECK_FRAMES)
+            .map(|i| t0 + (t1 - t0) * i as f32 / (CHECK_FRAMES - 1) as f32)
             .collect();
+    };
+    let times: Vec<f32> = seq.frames().iter().map(|f| f.time as f32).collect();
+    if times.len() <= CHECK_FRAMES {
+        return times;
     }
+    let n = times.len() - 1;
+    (0..CHECK_FRAMES)
+        .map(|i| times[i * n / (CHECK_FRAMES - 1)])
+        .collect()
+}
+
+/// The checks of a model, with the input `seq` it was trained on where given (the same
+/// classes in the same order): its classes' surfaces at [`check_times`] at
+/// [`DEFAULT_RESOLUTION`], against their contours ([`against_contours`] with
+/// [`DEFAULT_TOLERANCE`], only with `seq`) and the domain's edge ([`against_domain`]). What
+/// training reports after the run and `dynaslice info` (with or without the input) prints.
+/// `progress` is called with (times meshed, times to mesh) before the first and after each.
+/// Returns the times checked and the warnings.
+pub fn check(
+    model: &Model,
+    seq: Option<&Sequence>,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<(Vec<f32>, Vec<Warning>)> {
+    let times = check_times(model, seq);
     let total = times.len();
     progress(0, total);
     let extents = class_extents(model, &times, DEFAULT_RESOLUTION, |i| progress(i, total))?;
-    let mut warnings = against_contours(&extents, &contour_bounds(seq), DEFAULT_TOLERANCE)?;
+    let mut warnings = match seq {
+        Some(seq) => against_contours(&extents, &contour_bounds(seq), DEFAULT_TOLERANCE)?,
+        None => Vec::new(),
+    };
     warnings.extend(against_domain(
         &extents,
         model,
         cell(model, DEFAULT_RESOLUTION),
     ));
-    Ok(warnings)
+    Ok((times, warnings))
+}
+
+/// [`check`] with the input: the warnings after training.
+pub fn check_model(
+    model: &Model,
+    seq: &Sequence,
+    progress: impl FnMut(usize, usize),
+) -> Result<Vec<Warning>> {
+    check(model, Some(seq), progress).map(|(_, warnings)| warnings)
 }
 
 #[cfg(test)]
@@ -350,6 +375,46 @@ mod tests {
             bounds: Some(Aabb { min, max }),
             volume,
         }
+    }
+
+    /// The check meshes a moving model at up to 5 of its input's frame times (first and last
+    /// included), or 5 times over its range without the input; a static model at its one time.
+    #[test]
+    fn check_times_follow_the_input_or_the_range() {
+        let bytes = spheres::model(&[Sphere::new([0.0; 3], 0.5, 0.0)], &[("a", 1)]);
+        let model = Model::from_bytes(&bytes).unwrap();
+        let (t0, t1) = model.domain().time_range();
+        let over_range = check_times(&model, None);
+        assert_eq!(over_range.len(), CHECK_FRAMES);
+        assert_eq!((over_range[0], over_range[CHECK_FRAMES - 1]), (t0, t1));
+        let input = |n: usize| {
+            let class = ClassInfo {
+                name: "a".into(),
+                label: 1,
+                color: None,
+            };
+            let frames = (0..n)
+                .map(|i| Frame {
+                    time: i as f64,
+                    planes: vec![plane(0.0, &[(0, [0.0, 0.0], 5.0)])],
+                })
+                .collect();
+            Sequence::new(vec![class], frames).unwrap()
+        };
+        assert_eq!(check_times(&model, Some(&input(3))), [0.0, 1.0, 2.0]);
+        assert_eq!(
+            check_times(&model, Some(&input(9))),
+            [0.0, 2.0, 4.0, 6.0, 8.0]
+        );
+        let mut w = spheres::writer_in(
+            SPHERES_DOMAIN,
+            &[Sphere::new([0.0; 3], 0.5, 0.0)],
+            &[("a", 1)],
+        );
+        w.omega_t_max = 0.0;
+        let bytes = w.to_bytes();
+        let fixed = Model::from_bytes(&bytes).unwrap();
+        assert_eq!(check_times(&fixed, Some(&input(9))), [t0]);
     }
 
     #[test]

@@ -20,6 +20,7 @@ pub mod heldout;
 pub mod inside;
 pub mod iou;
 pub mod itv;
+pub mod measurement;
 pub mod motion;
 pub mod support;
 pub mod volume;

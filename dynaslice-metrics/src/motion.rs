@@ -15,6 +15,7 @@ use anyhow::{ensure, Result};
 use dynaslice_core::Model;
 use std::fmt::Write as _;
 
+use dynaslice_data::Space;
 /// The length unit of a model's world: the input's, as the model records it.
 pub use dynaslice_data::Units;
 
@@ -30,6 +31,17 @@ pub enum Frame {
 }
 
 impl Frame {
+    /// The frame results are given in for an input in `units` and patient frame `space` (what
+    /// a model's run record says): an input without a length unit (`.csl`, native JSON) has no
+    /// known anatomical axes.
+    pub fn of(units: Units, space: Space) -> Frame {
+        match (units, space) {
+            (Units::Plain, _) => Frame::Plain,
+            (Units::Millimetres, Space::Lps) => Frame::Lps,
+            (Units::Millimetres, Space::Ras) => Frame::Ras,
+        }
+    }
+
     /// The frame's name: `LPS`, `RAS` or `xyz`.
     pub fn name(self) -> &'static str {
         match self {

@@ -1,16 +1,18 @@
 //! Opening a model file (.dsm): the one way every front end reads a model, with what the file
 //! records about its input.
 
-use crate::class_colors::recorded_class_colors;
+use crate::run_record::RunRecord;
 use anyhow::{anyhow, bail, Context, Result};
-use dynaslice_core::{Model, ModelBytes};
+use dynaslice_core::{Model, ModelBytes, OwnedModel};
 use dynaslice_sequence::{palette, ClassInfo, Space, Units};
 use std::path::{Path, PathBuf};
 
-/// A model file read from disk and validated.
+/// A model file read from disk and validated, with its metadata's [`RunRecord`]: both once, at
+/// open.
 pub struct ModelFile {
-    /// Valid: [`ModelFile::open`] or [`ModelFile::from_bytes`] checked them.
-    bytes: ModelBytes,
+    /// Validated once, by [`ModelFile::open`] or [`ModelFile::from_bytes`].
+    owned: OwnedModel,
+    record: RunRecord,
     path: PathBuf,
 }
 
@@ -27,25 +29,35 @@ impl ModelFile {
         ModelFile::from_bytes(bytes, path)
     }
 
-    /// Validates model `bytes` that came from `source` (named in errors).
+    /// Validates model `bytes` that came from `source` (named in errors) and reads its run
+    /// record. A malformed metadata line does not make the model unusable: it is reported as a
+    /// warning and its field read as not recorded ([`RunRecord::parse_lossy`]).
     pub fn from_bytes(bytes: ModelBytes, source: &Path) -> Result<ModelFile> {
-        bytes
-            .model()
-            .map_err(|e| anyhow!("{}: {e}", source.display()))?;
+        let owned = OwnedModel::new(bytes).map_err(|e| anyhow!("{}: {e}", source.display()))?;
+        let (record, problems) = RunRecord::parse_lossy(owned.model().metadata());
+        for p in problems {
+            log::warn!("{}: metadata {p}; read as not recorded", source.display());
+        }
         Ok(ModelFile {
-            bytes,
+            owned,
+            record,
             path: source.to_path_buf(),
         })
     }
 
-    /// The model.
+    /// What the model's metadata records of the run that trained it.
+    pub fn record(&self) -> &RunRecord {
+        &self.record
+    }
+
+    /// The model (a view validated at open: free to call).
     pub fn model(&self) -> Model<'_> {
-        self.bytes.model().expect("validated by open")
+        *self.owned.model()
     }
 
     /// The file's bytes.
     pub fn bytes(&self) -> &ModelBytes {
-        &self.bytes
+        self.owned.bytes()
     }
 
     /// Where the model came from.
@@ -55,17 +67,11 @@ impl ModelFile {
 
     /// The model's classes in channel order, each with the display colour its input had where
     /// the model file records one (`class_colors` in its metadata), else `None`: pass them to
-    /// [`palette::class_color`] with the class's index. A malformed `class_colors` line is
-    /// ignored with a warning; models written before the line existed have no colours.
+    /// [`palette::class_color`] with the class's index. A malformed `class_colors` line was
+    /// reported at open; models written before the line existed have no colours.
     pub fn classes(&self) -> Vec<ClassInfo> {
         let model = self.model();
-        let recorded = recorded_class_colors(&model).unwrap_or_else(|e| {
-            log::warn!(
-                "{}: {e}; the classes take the palette's colours",
-                self.path.display()
-            );
-            vec![None; model.num_classes()]
-        });
+        let recorded = self.record.channel_colors(&model);
         model
             .classes()
             .zip(recorded)
@@ -89,34 +95,23 @@ impl ModelFile {
 
     /// The file's size in bytes.
     pub fn len(&self) -> usize {
-        self.bytes.len()
+        self.owned.bytes().len()
     }
 
     /// Whether the file is empty (never: a valid model has a header).
     pub fn is_empty(&self) -> bool {
-        self.bytes.len() == 0
+        self.owned.bytes().len() == 0
     }
 
-    /// The value of metadata `key` (`key = value` lines), trimmed.
-    fn metadata_value(&self, key: &str) -> Option<String> {
-        self.model().metadata().lines().find_map(|line| {
-            let (k, v) = line.split_once('=')?;
-            (k.trim() == key).then(|| v.trim().to_string())
-        })
-    }
-
-    /// The patient frame of the input's coordinates, which outputs default to. Models written
-    /// before the frame was recorded give LPS, what those outputs were tagged with.
+    /// The patient frame of the input's coordinates, which outputs default to
+    /// ([`RunRecord::space`]: LPS where not recorded).
     pub fn space(&self) -> Space {
-        self.metadata_value(Space::METADATA_KEY)
-            .and_then(|v| Space::from_name(&v))
-            .unwrap_or(Space::Lps)
+        self.record.space()
     }
 
-    /// The input's length unit, where recorded.
-    pub fn units(&self) -> Option<Units> {
-        self.metadata_value(Units::METADATA_KEY)
-            .and_then(|v| Units::from_name(&v))
+    /// The input's length unit ([`RunRecord::units`]: plain where not recorded).
+    pub fn units(&self) -> Units {
+        self.record.units()
     }
 
     /// A static model does not depend on time: trained on a single timestep, where the trainer

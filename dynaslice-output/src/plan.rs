@@ -64,9 +64,9 @@ impl Kind {
 
 /// Extensions of files this tool reads or writes: a series directory named like one is
 /// almost certainly a mistaken `-o file.vtp`.
-const FILE_EXTENSIONS: [&str; 14] = [
+const FILE_EXTENSIONS: [&str; 18] = [
     "ply", "obj", "stl", "vtp", "pvd", "json", "csv", "png", "nii", "gz", "dsm", "csl", "txt",
-    "ckpt",
+    "ckpt", "nrrd", "nhdr", "dcm", "html",
 ];
 
 /// The outputs of one run, checked against its inputs and each other, and claimed for the run:

@@ -2,7 +2,7 @@
 
 use crate::batch::{self, Answers, PointsArg, Query, TimesArg};
 use crate::{core_error, detach_result, pool, DynasliceError};
-use dynaslice_core::{Model, ModelBytes};
+use dynaslice_core::{Model, ModelBytes, OwnedModel};
 use dynaslice_data::nifti::{read_geometry, read_volume};
 use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
 use dynaslice_model::{recorded_class_colors, resolve_classes};
@@ -15,23 +15,6 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 use std::ffi::CString;
 use std::path::{Path, PathBuf};
-
-self_cell::self_cell!(
-    /// The model's bytes and the validated [`Model`] borrowing them: parsed once, at load.
-    pub struct Loaded {
-        owner: ModelBytes,
-        #[covariant]
-        dependent: Model,
-    }
-);
-
-impl Loaded {
-    /// Validates `bytes`; `source` names them in the error (a path, or "model bytes").
-    pub fn validate(bytes: ModelBytes, source: &str) -> PyResult<Loaded> {
-        Loaded::try_new(bytes, |b| b.model())
-            .map_err(|e| DynasliceError::new_err(format!("{source}: {e}")))
-    }
-}
 
 /// (name, source label value, recorded colour): one class as Python sees it.
 type ClassRecord = (String, i32, Option<Rgb>);
@@ -46,15 +29,16 @@ type Rgb = (u8, u8, u8);
 /// GIL and run on all cores (the `RAYON_NUM_THREADS` environment variable caps them).
 #[pyclass(name = "Model", module = "dynaslice._dynaslice", frozen)]
 pub struct PyModel {
-    loaded: Loaded,
+    /// Validated once, at load.
+    owned: OwnedModel,
 }
 
 impl PyModel {
     /// Wraps validated bytes.
     pub fn from_model_bytes(bytes: ModelBytes, source: &str) -> PyResult<PyModel> {
-        Ok(PyModel {
-            loaded: Loaded::validate(bytes, source)?,
-        })
+        let owned = OwnedModel::new(bytes)
+            .map_err(|e| DynasliceError::new_err(format!("{source}: {e}")))?;
+        Ok(PyModel { owned })
     }
 
     pub(crate) fn model_ref(&self) -> &Model<'_> {
@@ -62,7 +46,7 @@ impl PyModel {
     }
 
     fn model(&self) -> &Model<'_> {
-        self.loaded.borrow_dependent()
+        self.owned.model()
     }
 
     /// Runs a batch query with the GIL released.
@@ -133,7 +117,7 @@ impl PyModel {
 
     /// The model file's bytes.
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
-        PyBytes::new(py, self.loaded.borrow_owner().as_bytes())
+        PyBytes::new(py, self.owned.bytes().as_bytes())
     }
 
     /// K, the number of classes.

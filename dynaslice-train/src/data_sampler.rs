@@ -8,6 +8,7 @@ use crate::sampling::{
     SamplingIndex, SpaceTimeBatch,
 };
 use dynaslice_core::Domain;
+use dynaslice_model::SampleRecord;
 use dynaslice_sequence::{Aabb, Sequence};
 
 /// Relative margin around the data's bounding box inside the normalised cube, so surfaces near
@@ -128,17 +129,20 @@ impl SampleCounts {
         n
     }
 
-    /// One line for a model's metadata.
+    /// The counts as a model's run record holds them.
+    pub fn record(&self) -> SampleRecord {
+        SampleRecord {
+            contour_per_class: self.contour_per_class,
+            plane_per_class: self.plane_per_class,
+            budget_classes: self.budget_classes,
+            min_per_class: self.min_per_class,
+            space_time: self.space,
+        }
+    }
+
+    /// The counts in one line, as a model's metadata records them ([`SampleRecord::describe`]).
     pub fn describe(&self) -> String {
-        format!(
-            "samples = {} contour + {} plane per class up to {} classes, shared beyond (at least \
-             {} per class), {} space-time",
-            self.contour_per_class,
-            self.plane_per_class,
-            self.budget_classes,
-            self.min_per_class,
-            self.space
-        )
+        self.record().describe()
     }
 }
 

@@ -17,6 +17,7 @@ use crate::temporal_bound::temporal_bound;
 use crate::trainer::{self, Progress};
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::ModelBytes;
+use dynaslice_model::RunRecord;
 use dynaslice_output::write_atomically;
 use dynaslice_sequence::{Sequence, Space, Units};
 use std::ops::ControlFlow;
@@ -96,17 +97,15 @@ pub struct InputRecord {
 }
 
 impl InputRecord {
-    /// The metadata lines.
-    fn lines(&self) -> String {
-        format!(
-            "input = {}\nframes = {}\n{} = {}\n{} = {}",
-            self.description,
-            self.frames,
-            Space::METADATA_KEY,
-            self.space.name(),
-            Units::METADATA_KEY,
-            self.units.name()
-        )
+    /// The record's `input`, `frames`, `space` and `units`.
+    fn record(&self) -> RunRecord {
+        RunRecord {
+            input: Some(self.description.clone()),
+            frames: Some(self.frames.clone()),
+            space: Some(self.space),
+            units: Some(self.units),
+            ..RunRecord::default()
+        }
     }
 }
 
@@ -281,7 +280,7 @@ pub fn fit(
         counts,
         temporal_factor: spec.temporal_factor(),
         class_weights: spec.class_weights.as_deref(),
-        input: &input.lines(),
+        input: input.record(),
     }
     .to_bytes()
     .map_err(|e| anyhow!("cannot write the model: {e}"))?;

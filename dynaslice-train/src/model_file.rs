@@ -5,7 +5,7 @@ use crate::data_sampler::SampleCounts;
 use crate::trainer::{Outcome, TrainOptions};
 use dynaslice_core::format::{MAX_CLASSES, MAX_NAME_LEN};
 use dynaslice_core::{Domain, Error, ModelBytes};
-use dynaslice_model::class_colors_line;
+use dynaslice_model::RunRecord;
 use dynaslice_sequence::ClassInfo;
 
 /// Checks, before any training, that a model of `classes` in `domain` (from
@@ -54,9 +54,9 @@ pub struct TrainedModel<'a> {
     pub temporal_factor: f32,
     /// Per-class weights of the contour and plane terms, where given.
     pub class_weights: Option<&'a [f32]>,
-    /// What was trained on, as `key = value` lines (`dynaslice train`: `input = PATH` and
-    /// `frames = A:B:STEP`).
-    pub input: &'a str,
+    /// What was trained on: `input`, `frames`, `space` and `units` of the record (the rest is
+    /// filled from the fields above).
+    pub input: RunRecord,
 }
 
 impl TrainedModel<'_> {
@@ -70,38 +70,39 @@ impl TrainedModel<'_> {
         let bytes = self
             .outcome
             .network
-            .to_writer(self.domain, classes, self.metadata())
+            .to_writer(self.domain, classes, self.record().emit())
             .try_to_bytes()?;
         Ok(ModelBytes::copy_from(&bytes))
     }
 
-    /// The metadata `dynaslice info` prints: `key = value` lines, in a fixed order.
-    fn metadata(&self) -> String {
-        let mut m = format!("trainer = dynaslice {}\n", env!("CARGO_PKG_VERSION"));
-        m += self.input;
-        m.push('\n');
-        m += &self.options.describe();
-        m += &format!(
-            "temporal_factor = {}\nsteps_done = {}\n",
-            self.temporal_factor, self.outcome.steps_done
-        );
-        if let Some(planned) = self.outcome.planned_steps {
+    /// The run record the model's metadata holds (`dynaslice info` prints it).
+    pub fn record(&self) -> RunRecord {
+        let (o, l) = (self.options, &self.options.loss);
+        RunRecord {
+            trainer: Some(format!("dynaslice {}", env!("CARGO_PKG_VERSION"))),
+            widths: Some(o.widths.clone()),
+            steps: Some(o.steps),
+            seed: Some(o.seed),
+            threads: Some(o.threads),
+            omega_0: Some(o.omega_0),
+            offset: Some(o.offset),
+            omega_t_max: Some(o.omega_t_max),
+            lr: Some((o.lr, o.lr_final)),
+            warmup_steps: Some(o.warmup_steps),
+            lambda_orientation: Some(l.orientation),
+            lambda_plane: Some(l.plane),
+            lambda_regulariser: Some(l.regulariser),
+            alpha: Some(l.alpha),
+            temporal_factor: Some(self.temporal_factor),
+            steps_done: Some(self.outcome.steps_done),
             // A timed run's schedule length: what its cosine was fitted to (--minutes).
-            m += &format!("planned_steps = {planned}\n");
+            planned_steps: self.outcome.planned_steps,
+            samples: Some(self.counts.record()),
+            class_weights: self.class_weights.map(<[f32]>::to_vec),
+            class_colors: RunRecord::colors_of(self.classes),
+            final_loss: self.outcome.history.last().map(|last| last.2),
+            ..self.input.clone()
         }
-        m += &self.counts.describe();
-        m.push('\n');
-        if let Some(w) = self.class_weights {
-            m += &format!("class_weights = {w:?}\n");
-        }
-        if let Some(line) = class_colors_line(self.classes) {
-            m += &line;
-            m.push('\n');
-        }
-        if let Some(last) = self.outcome.history.last() {
-            m += &format!("final_loss = {}\n", last.2);
-        }
-        m
     }
 }
 

@@ -482,17 +482,31 @@ mod tests {
     }
 
     #[test]
+    /// An empty spec trains with the defaults docs/training.md documents ("Defaults, and
+    /// why"), written out here rather than read from the constants they are made of.
     fn defaults_are_the_trainers() {
         let s = TrainSpec::default();
         let o = s.options(1.0, None);
-        let d = TrainOptions::default();
-        assert_eq!(o.steps, DEFAULT_STEPS);
+        assert_eq!(o.widths, [256; 4]);
+        assert_eq!(o.steps, 3000);
         assert_eq!(
-            (o.lr, o.lr_final, o.omega_0, o.offset),
-            (d.lr, d.lr / 10.0, DEFAULT_OMEGA_0, d.offset)
+            (o.lr, o.lr_final, o.omega_0, o.offset, o.warmup_steps),
+            // The cosine ends at a tenth of the rate, computed in f32.
+            (1e-3, 1e-3 / 10.0, 20.0, 0.2, 0)
         );
+        let l = o.loss;
+        assert_eq!(
+            (l.orientation, l.plane, l.regulariser, l.alpha),
+            (0.1, 0.1, 0.2, 50.0)
+        );
+        assert_eq!(s.temporal_factor(), 0.2);
         assert_eq!(o.checkpoint_every, Duration::from_secs(120));
-        assert_eq!(s.counts(), SampleCounts::default());
+        let c = s.counts();
+        assert_eq!(
+            (c.contour_per_class, c.plane_per_class, c.space),
+            (1024, 1024, 1024)
+        );
+        assert_eq!((c.budget_classes, c.min_per_class), (3, 64));
         let timed = TrainSpec {
             minutes: Some(1.0),
             ..TrainSpec::default()

@@ -62,19 +62,6 @@ pub struct TrainOptions {
     pub resume: bool,
 }
 
-impl TrainOptions {
-    /// The options as `key = value` lines, for the model's metadata.
-    pub fn describe(&self) -> String {
-        let l = &self.loss;
-        format!(
-            "widths = {:?}\nsteps = {}\nseed = {}\nthreads = {}\nomega_0 = {}\noffset = {}\nomega_t_max = {}\n\
-             lr = {} -> {}\nwarmup_steps = {}\nlambda_orientation = {}\nlambda_plane = {}\nlambda_regulariser = {}\nalpha = {}\n",
-            self.widths, self.steps, self.seed, self.threads, self.omega_0, self.offset, self.omega_t_max, self.lr,
-            self.lr_final, self.warmup_steps, l.orientation, l.plane, l.regulariser, l.alpha
-        )
-    }
-}
-
 /// What the loop reports after each step.
 #[derive(Clone, Copy, Debug)]
 pub struct Progress {

@@ -1,0 +1,85 @@
+//! The metadata a trained model records is its run record: it parses without a problem, every
+//! key the trainer writes is there with the run's values, and emitting it again gives the
+//! file's text byte for byte.
+
+use dynaslice_model::{RunRecord, SampleRecord};
+use dynaslice_sequence::{Sequence, Space, Units};
+use dynaslice_synth::{BenchmarkOptions, Shape};
+use dynaslice_train::fit::{fit, InputRecord, Quiet};
+use dynaslice_train::spec::TrainSpec;
+
+#[test]
+fn the_trainers_metadata_is_a_run_record() {
+    let synth = dynaslice_synth::slice_sequence(
+        Shape::Chambers,
+        &BenchmarkOptions {
+            plane_resolution: 24,
+            ..BenchmarkOptions::default()
+        },
+    )
+    .unwrap();
+    // The input's colours for two of its classes: the record keeps those, by label.
+    let mut classes = synth.classes().to_vec();
+    classes[0].color = Some([0xe6, 0x19, 0x4b]);
+    classes[2].color = Some([0, 0, 255]);
+    let seq = Sequence::new(classes, synth.frames().to_vec()).unwrap();
+    let spec = TrainSpec {
+        steps: Some(3),
+        seed: Some(11),
+        threads: Some(1),
+        widths: Some(vec![8, 8]),
+        class_weights: Some(vec![2.0; seq.classes().len()]),
+        ..TrainSpec::default()
+    };
+    let input = InputRecord {
+        description: "chambers + more".into(),
+        frames: "0:4:2".into(),
+        space: Space::Lps,
+        units: Units::Millimetres,
+    };
+    let trained = fit(&seq, &spec, &input, None, &mut Quiet).unwrap();
+    let model = trained.bytes.model().unwrap();
+    let text = model.metadata();
+    let record = RunRecord::parse(text).unwrap_or_else(|e| panic!("{e} in\n{text}"));
+    assert_eq!(
+        record.emit(),
+        text,
+        "the emitter reproduces the file's text"
+    );
+    assert!(record.other.is_empty(), "unknown lines: {:?}", record.other);
+    for key in RunRecord::KEYS {
+        // A run without a time budget plans no schedule.
+        let absent = *key == "planned_steps";
+        assert_eq!(
+            text.lines().any(|l| l.starts_with(&format!("{key} = "))),
+            !absent,
+            "{key} in\n{text}"
+        );
+    }
+    assert_eq!(record.input.as_deref(), Some("chambers + more"));
+    assert_eq!(record.frames.as_deref(), Some("0:4:2"));
+    assert_eq!(record.space, Some(Space::Lps));
+    assert_eq!(record.units, Some(Units::Millimetres));
+    assert_eq!(record.widths, Some(vec![8, 8]));
+    assert_eq!((record.steps, record.steps_done), (Some(3), Some(3)));
+    assert_eq!((record.seed, record.threads), (Some(11), Some(1)));
+    assert_eq!(record.omega_0, Some(spec.options(1.0, None).omega_0));
+    assert_eq!(record.class_weights, spec.class_weights);
+    let counts = spec.counts();
+    assert_eq!(
+        record.samples,
+        Some(SampleRecord {
+            contour_per_class: counts.contour_per_class,
+            plane_per_class: counts.plane_per_class,
+            budget_classes: counts.budget_classes,
+            min_per_class: counts.min_per_class,
+            space_time: counts.space,
+        })
+    );
+    let (a, c) = (seq.classes()[0].label, seq.classes()[2].label);
+    assert_eq!(
+        record.class_colors,
+        Some(vec![(a, [0xe6, 0x19, 0x4b]), (c, [0, 0, 255])])
+    );
+    assert!(record.final_loss.is_some_and(f64::is_finite));
+}
