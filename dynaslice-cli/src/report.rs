@@ -15,7 +15,7 @@ use dynaslice_metrics::motion::{round, Units};
 use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
 use dynaslice_output::{Kind, Plan};
-use dynaslice_report::{Block, Cell, Document, Section, Table};
+use dynaslice_report::{viewer, Block, Cell, Document, Section, Table};
 use std::path::{Path, PathBuf};
 
 /// Draws a figure (a PNG, by the closure given the path to write) and returns its bytes.
@@ -32,8 +32,10 @@ training (the model file's record and the loss curve from MODEL.dsm.loss.csv bes
 when present), the classes with their names, labels and colours, the volume over time and the
 centroid's trajectory along each axis as charts, the per-class figures over the cycle and the
 per-time table (the numbers of `dynaslice measure` with the same --times and --resolution, digit
-for digit), and the surfaces in 3D at 4 times. Images are inline (data: URIs): the one file
-opens in any browser without a network.")]
+for digit), the surfaces in an interactive 3D view (WebGL: turn, zoom and pan with the mouse,
+play or slide through every time, a toggle per class, the volumes at the time shown) and as
+pictures at 4 times. Images and the view's data are inline: the one file opens in any browser
+without a network.")]
 pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
@@ -463,15 +465,71 @@ fn surfaces_section(
     })?;
     Ok(Section {
         heading: "Surfaces".into(),
-        blocks: vec![Block::Image {
-            png,
-            caption: format!(
-                "The classes' surfaces at {} times, seen from the front, a little to the \
+        blocks: vec![
+            interactive_view(&model, m, &channels, resolution)?,
+            Block::Image {
+                png,
+                caption: format!(
+                    "The classes' surfaces at {} times, seen from the front, a little to the \
                  patient's right and above (superior up; `dynaslice picture --3d`).",
-                times.len()
-            ),
-        }],
+                    times.len()
+                ),
+            },
+        ],
     })
+}
+
+/// Lattice cells of the interactive view's meshes at the most: the view decimates them to its
+/// byte budget anyway, and every measured time is meshed again for it.
+const VIEW_RESOLUTION: u32 = 64;
+
+/// The interactive 3D view (dynaslice_report::viewer): every class's surface and volume at
+/// every measured time.
+fn interactive_view(
+    model: &Model,
+    m: &Measurement,
+    channels: &[usize],
+    resolution: u32,
+) -> Result<Block> {
+    let options = dynaslice_mesh::Options {
+        resolution: resolution.min(VIEW_RESOLUTION),
+        ..dynaslice_mesh::Options::default()
+    };
+    let motion = &m.motion;
+    let frames = motion
+        .times
+        .iter()
+        .zip(&motion.shapes)
+        .map(|(&t, shapes)| {
+            let meshes = surfaces_at(model, t as f32, channels, &options, |_| {})?.meshes;
+            Ok(viewer::Frame {
+                time: t,
+                surfaces: meshes
+                    .into_iter()
+                    .map(|mesh| viewer::Surface {
+                        positions: mesh.positions,
+                        triangles: mesh.triangles,
+                    })
+                    .collect(),
+                volumes: shapes.iter().map(|c| Some(m.volume(c.volume))).collect(),
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let scene = viewer::Scene {
+        classes: m
+            .classes
+            .iter()
+            .zip(&m.colors)
+            .map(|(c, &color)| viewer::Class {
+                name: c.name.clone(),
+                color,
+            })
+            .collect(),
+        frames,
+        time_label: format!("{}:", time_axis(m.frame)),
+        volume_unit: m.units.volume().to_string(),
+    };
+    Ok(Block::Html(viewer::render(&scene)))
 }
 
 #[cfg(test)]

@@ -173,6 +173,38 @@ impl Mesh {
             .sum()
     }
 
+    /// The mesh as readers that weld vertices by position see it (every STL reader: the format
+    /// has no shared vertices; trimesh for every format): vertices with bit-identical positions
+    /// merged into the first of them, triangles re-indexed, attributes dropped. A mesh of
+    /// distinct positions comes back with the same triangles; its [`Mesh::topology`] is then
+    /// what those readers find.
+    pub fn welded(&self) -> Mesh {
+        let mut first: FxHashMap<[u32; 3], u32> = FxHashMap::default();
+        let mut positions = Vec::new();
+        let index: Vec<u32> = self
+            .positions
+            .iter()
+            .map(|p| {
+                // + 0.0 makes −0 and 0 one key, as they are one point.
+                *first
+                    .entry(p.map(|v| (v + 0.0).to_bits()))
+                    .or_insert_with(|| {
+                        positions.push(*p);
+                        positions.len() as u32 - 1
+                    })
+            })
+            .collect();
+        Mesh {
+            positions,
+            triangles: self
+                .triangles
+                .iter()
+                .map(|t| t.map(|v| index[v as usize]))
+                .collect(),
+            ..Mesh::default()
+        }
+    }
+
     /// Edge and vertex incidence checks (see [`Topology`]).
     pub fn topology(&self) -> Topology {
         let mut directed: FxHashMap<(u32, u32), u32> = FxHashMap::default();

@@ -5,8 +5,10 @@
 //! The Kuhn subdivision is the same in every cell, so neighbouring tetrahedra share faces and
 //! edges exactly and the interpolated zero set is a closed 2-manifold with no ambiguous cases
 //! (marching cubes needs case tables and face disambiguation for that). A value of exactly 0
-//! counts as outside, so no vertex sits on a lattice vertex. Mesh vertices are keyed by their
-//! lattice edge, shared by every triangle touching it. Triangles are oriented from exact integer
+//! counts as outside, so every lattice vertex is strictly on one side; the linear zero of an
+//! edge from such a vertex is at that vertex, which [`crate::vertices`] moves off (vertices of
+//! different edges must never share a position). Mesh vertices are keyed by their lattice edge,
+//! shared by every triangle touching it, and never merged by position. Triangles are oriented from exact integer
 //! arithmetic on the edge midpoints, with normals towards the positive (outside) side.
 
 use super::lattice::{key, Lattice};

@@ -134,6 +134,14 @@ fn _bench_rust_batch<'py>(
 /// The `dynaslice._dynaslice` extension module.
 #[pymodule]
 fn _dynaslice(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // The library's `log` records go to Python's `logging`, to the logger named after the Rust
+    // module (`dynaslice_data.csl`, …): what the command line prints as warnings. A second
+    // logger already installed (another extension's) keeps its place. Nothing is cached, so
+    // levels set later (logging.basicConfig, pytest's caplog) take effect: the library logs
+    // rarely (warnings, notes), never in a loop.
+    if let Ok(logger) = pyo3_log::Logger::new(m.py(), pyo3_log::Caching::Nothing) {
+        let _ = logger.install();
+    }
     m.add("DynasliceError", m.py().get_type::<DynasliceError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<model::PyModel>()?;

@@ -9,6 +9,8 @@
 
 #![warn(missing_docs)]
 
+pub mod viewer;
+
 use std::fmt::Write as _;
 
 /// A whole report.
@@ -47,6 +49,8 @@ pub enum Block {
         /// Alternative text, also the caption.
         caption: String,
     },
+    /// A fragment of HTML made by this crate (e.g. [`viewer::render`]), inserted as it is.
+    Html(String),
 }
 
 /// A table with a header row.
@@ -100,7 +104,8 @@ body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,'DejaVu Sans',sans-se
 margin:2em auto;max-width:1100px;padding:0 1em;color:#1b1b1b;line-height:1.45}\
 h1{margin-bottom:.2em}.subtitle{color:#555;margin-top:0}\
 h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:2em}\
-table{border-collapse:collapse;margin:1em 0;font-size:.92em}\
+table{border-collapse:collapse;margin:1em 0;font-size:.92em;display:block;max-width:100%;\
+overflow-x:auto}\
 th,td{border:1px solid #ccc;padding:.25em .6em;text-align:left}\
 th{background:#f2f2f2}td.num{text-align:right;font-variant-numeric:tabular-nums}\
 dl{display:grid;grid-template-columns:max-content auto;gap:.2em 1.2em}dt{font-weight:600}\
@@ -184,6 +189,7 @@ fn block(h: &mut String, b: &Block) {
             }
             h.push_str("</tbody>\n</table>\n");
         }
+        Block::Html(fragment) => h.push_str(fragment),
         Block::Image { png, caption } => {
             let _ = writeln!(
                 h,

@@ -19,6 +19,7 @@ See docs/python.md for the whole API.
 from __future__ import annotations
 
 import os
+import sys
 from typing import Any, Callable, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -335,13 +336,32 @@ def random_model(widths: Sequence[int], num_classes: int, seed: int = 0) -> Mode
     return Model(_dynaslice.random_model(list(widths), num_classes, seed))
 
 
-def _progress_bar() -> Optional[Callable[[dict], None]]:
-    """A tqdm bar fed by the training callback, when tqdm is installed; its length follows the
-    run's schedule (a timed run's plan moves as the machine's speed changes)."""
+def _progress_lines() -> Callable[[dict], None]:
+    """Without tqdm: a plain line on stderr naming the ``[progress]`` extra, then one line at
+    every tenth of the run and at its end."""
+    shown = {"tenth": -1}
+
+    def update(p: dict) -> None:
+        if shown["tenth"] < 0:
+            print("dynaslice train: %d steps (pip install 'dynaslice[progress]' for a progress "
+                  "bar)" % p["steps"], file=sys.stderr, flush=True)
+        tenth = 10 * p["step"] // max(1, p["steps"])
+        if tenth > shown["tenth"]:
+            shown["tenth"] = tenth
+            print("dynaslice train: step %d/%d loss %.3e" % (p["step"], p["steps"], p["loss"]),
+                  file=sys.stderr, flush=True)
+
+    return update
+
+
+def _progress_bar() -> Callable[[dict], None]:
+    """A tqdm bar fed by the training callback, when tqdm is installed (else plain lines); its
+    length follows the run's schedule (a timed run's plan moves as the machine's speed
+    changes)."""
     try:
         from tqdm.auto import tqdm
     except ImportError:
-        return None
+        return _progress_lines()
     bar = tqdm(total=None, unit="step", desc="dynaslice train")
 
     def update(p: dict) -> None:
@@ -375,7 +395,8 @@ def train(
     ``threads`` (default: all cores) make it reproducible. Every keyword and default is the
     command line's (``dynaslice train --help``): both map onto one training specification, and
     the same model file comes out of both. ``progress``:
-    True shows a tqdm bar when tqdm is installed, False nothing, a callable gets a dict
+    True shows a tqdm bar when tqdm is installed (else a line on stderr at every tenth of the
+    run), False nothing, a callable gets a dict
     (step, steps, loss, lr, elapsed and the loss terms) at most every 50 ms.
 
     ``options`` are the command's other options with underscores (``frames="0:37:4"``,

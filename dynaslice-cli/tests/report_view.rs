@@ -1,0 +1,216 @@
+//! The report's interactive 3D view in headless Chromium with software WebGL (SwiftShader): the
+//! page loads with a silent console; each class shown alone puts pixels of its colour in the
+//! canvas; the picture changes between the slider's ends and after a drag; the volumes follow
+//! the slider; the page does not scroll sideways at 1200 px. The checks run in a script added
+//! to a copy of the report (the report itself carries none). Skips with a notice where Chromium
+//! is not installed; CI installs it and sets DYNASLICE_REQUIRE_PYTHON, where that fails.
+
+mod common;
+
+use common::succeeded;
+use dynaslice_test_support::spheres::{self, Sphere};
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Headless Chromium, or `None` (with a notice) where it is not installed.
+fn chromium() -> Option<&'static str> {
+    let found = ["chromium", "chromium-browser"].into_iter().find(|c| {
+        Command::new(c)
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+    });
+    if found.is_none() {
+        assert!(
+            std::env::var_os("DYNASLICE_REQUIRE_PYTHON").is_none(),
+            "chromium is not installed but DYNASLICE_REQUIRE_PYTHON is set"
+        );
+        println!("SKIPPED: chromium is not installed (apt-get install chromium)");
+    }
+    found
+}
+
+/// Chromium headless on `page` with software WebGL at 1200 × 900, isolated (a fresh profile,
+/// no network services), dumping the DOM; stderr holds the console messages.
+fn browse(browser: &str, page: &Path) -> Output {
+    let profile = tempfile::tempdir().unwrap();
+    let url = format!("file://{}", page.canonicalize().unwrap().display());
+    Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            // SwiftShader: WebGL without a GPU (ANGLE's software backend).
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--enable-logging=stderr",
+            "--v=0",
+            "--window-size=1200,900",
+            "--dump-dom",
+        ])
+        .arg(format!("--user-data-dir={}", profile.path().display()))
+        .arg(url)
+        .output()
+        .unwrap()
+}
+
+/// Run once the page has loaded; writes its findings into `<body data-view>`.
+const CHECKS: &str = r#"<script>
+window.addEventListener('load', function () {
+  var out = [];
+  try {
+    var root = document.querySelector('.dsv');
+    var canvas = root.querySelector('[data-dsv="canvas"]');
+    var gl = canvas.getContext('webgl');
+    var scene = JSON.parse(root.querySelector('[data-dsv="scene"]').textContent);
+    var pixels = function () {
+      var p = new Uint8Array(canvas.width * canvas.height * 4);
+      gl.readPixels(0, 0, canvas.width, canvas.height, gl.RGBA, gl.UNSIGNED_BYTE, p);
+      return p;
+    };
+    // Pixels that are a shade (lit 0.3 to 1) of colour c.
+    var shades = function (p, c) {
+      var n = 0, cc = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+      for (var i = 0; i < p.length; i += 4) {
+        var f = (p[i] * c[0] + p[i + 1] * c[1] + p[i + 2] * c[2]) / cc;
+        if (f < 0.3 || f > 1.02) continue;
+        if (Math.abs(p[i] - f * c[0]) < 6 && Math.abs(p[i + 1] - f * c[1]) < 6 &&
+            Math.abs(p[i + 2] - f * c[2]) < 6) n++;
+      }
+      return n;
+    };
+    var differ = function (a, b) {
+      var n = 0;
+      for (var i = 0; i < a.length; i += 4) {
+        if (a[i] !== b[i] || a[i + 1] !== b[i + 1] || a[i + 2] !== b[i + 2]) n++;
+      }
+      return n;
+    };
+    var boxes = root.querySelectorAll('[data-dsv="class"]');
+    var only = function (k) {
+      for (var j = 0; j < boxes.length; j++) {
+        boxes[j].checked = k < 0 || j === k;
+        boxes[j].dispatchEvent(new Event('change'));
+      }
+    };
+    out.push('size=' + canvas.width + 'x' + canvas.height);
+    for (var k = 0; k < scene.classes.length; k++) {
+      only(k);
+      out.push('class' + k + '=' + shades(pixels(), scene.classes[k].color));
+    }
+    only(-1);
+    var slider = root.querySelector('[data-dsv="time"]');
+    var volume = root.querySelector('[data-dsv="volume"]');
+    slider.value = '0';
+    slider.dispatchEvent(new Event('input'));
+    var first = pixels(), v0 = volume.textContent;
+    slider.value = String(scene.frames.length - 1);
+    slider.dispatchEvent(new Event('input'));
+    var last = pixels(), v1 = volume.textContent;
+    out.push('slider=' + differ(first, last));
+    out.push('volumes=' + v0 + '/' + v1);
+    var r = canvas.getBoundingClientRect();
+    var pointer = function (type, target, x, y) {
+      target.dispatchEvent(new PointerEvent(type, { clientX: r.left + x, clientY: r.top + y,
+        button: 0, buttons: 1, bubbles: true, pointerId: 1, isPrimary: true }));
+    };
+    pointer('pointerdown', canvas, 100, 100);
+    pointer('pointermove', window, 180, 130);
+    pointer('pointerup', window, 180, 130);
+    out.push('drag=' + differ(last, pixels()));
+    var page = document.documentElement;
+    out.push('sideways=' + (page.scrollWidth - page.clientWidth));
+  } catch (e) {
+    out.push('error=' + String(e).replace(/ /g, '_'));
+  }
+  document.body.setAttribute('data-view', out.join(' '));
+});
+</script>
+"#;
+
+/// The value of `key=` in the findings.
+fn finding<'a>(findings: &'a str, key: &str) -> &'a str {
+    findings
+        .split_whitespace()
+        .find_map(|f| f.strip_prefix(&format!("{key}=")))
+        .unwrap_or_else(|| panic!("no {key} in {findings}"))
+}
+
+#[test]
+fn interactive_view_turns_plays_and_shows_every_class() {
+    let dir = tempfile::tempdir().unwrap();
+    // Class 1 grows over time (normalised radius² = 0.25 + 0.1·t); class 2 stays.
+    let model = dir.path().join("m.dsm");
+    std::fs::write(
+        &model,
+        spheres::model(
+            &[
+                Sphere::new([0.0; 3], 0.5, 0.1),
+                Sphere::new([0.4, 0.0, 0.0], 0.3, 0.0),
+            ],
+            &[("ball", 1), ("small ball", 7)],
+        ),
+    )
+    .unwrap();
+    let html = dir.path().join("report.html");
+    succeeded(
+        &Command::new(env!("CARGO_BIN_EXE_dynaslice"))
+            .args(["report", s(&model), "-o", s(&html)])
+            .args(["--times", "0:2:5", "--resolution", "48"])
+            .output()
+            .unwrap(),
+    );
+    let text = std::fs::read_to_string(&html).unwrap();
+    assert_eq!(text.matches("<canvas").count(), 1);
+    // The still picture stays, for printing and browsers without WebGL.
+    assert!(text.contains("seen from the front"));
+    let Some(browser) = chromium() else { return };
+
+    // The report as it is: it loads with a silent console.
+    let plain = browse(browser, &html);
+    assert!(
+        plain.status.success(),
+        "{}",
+        String::from_utf8_lossy(&plain.stderr)
+    );
+    let log = String::from_utf8_lossy(&plain.stderr);
+    let console: Vec<&str> = log.lines().filter(|l| l.contains(":CONSOLE")).collect();
+    assert!(console.is_empty(), "console messages: {console:#?}");
+    assert!(String::from_utf8_lossy(&plain.stdout).contains("data-images=\"ok"));
+
+    // A copy with the checks.
+    let checked = dir.path().join("checked.html");
+    std::fs::write(
+        &checked,
+        text.replace("</body>", &format!("{CHECKS}</body>")),
+    )
+    .unwrap();
+    let out = browse(browser, &checked);
+    let dom = String::from_utf8_lossy(&out.stdout);
+    let findings = dom
+        .split("data-view=\"")
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .unwrap_or_else(|| panic!("no findings: {}", String::from_utf8_lossy(&out.stderr)));
+    println!("findings: {findings}");
+    assert!(!findings.contains("error="), "{findings}");
+    for k in 0..2 {
+        let n: usize = finding(findings, &format!("class{k}")).parse().unwrap();
+        assert!(n > 500, "class {k}: {n} pixels of its colour: {findings}");
+    }
+    let changed = |key: &str| finding(findings, key).parse::<usize>().unwrap();
+    assert!(changed("slider") > 500, "{findings}");
+    assert!(changed("drag") > 500, "{findings}");
+    let (v0, v1) = finding(findings, "volumes").split_once('/').unwrap();
+    let (v0, v1): (f64, f64) = (v0.parse().unwrap(), v1.parse().unwrap());
+    assert!(v1 > v0, "the ball grows: {v0} then {v1}");
+    assert_eq!(finding(findings, "sideways"), "0", "{findings}");
+}
