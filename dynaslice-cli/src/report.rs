@@ -7,6 +7,7 @@ use super::measure;
 use super::mesh::surfaces_at;
 use super::options::{count, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
 use anyhow::{Context, Result};
+use dynaslice_core::Model;
 use dynaslice_data::TimeSeries;
 use dynaslice_figures::plot::{class_chart, line_chart, Series};
 use dynaslice_figures::render3d::{self, RenderOptions, SurfacePanel};
