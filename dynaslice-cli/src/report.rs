@@ -74,19 +74,31 @@ pub fn run(a: Args) -> Result<()> {
         input_section(&file, &m),
         training_section(&file, &loss_csv, &figure)?,
         classes_section(&m),
-        figures_section(&m, &figure)?,
+        if file.is_static() {
+            static_section(&m)
+        } else {
+            figures_section(&m, &figure)?
+        },
     ];
     sections.push(surfaces_section(&file, &m, a.resolution, &figure)?);
     let doc = Document {
         title: format!("DynaSlice report: {}", file_name(&a.model)),
-        subtitle: format!(
-            "model {name}; {} times from {} to {}; measured on meshes of {} cells along the \
-             longest axis",
-            times.len(),
-            times[0],
-            times[times.len() - 1],
-            a.resolution
-        ),
+        subtitle: if file.is_static() {
+            format!(
+                "model {name}; a static model (trained on one timestep: the same at every \
+                 time), measured once on meshes of {} cells along the longest axis",
+                a.resolution
+            )
+        } else {
+            format!(
+                "model {name}; {} times from {} to {}; measured on meshes of {} cells along \
+                 the longest axis",
+                times.len(),
+                times[0],
+                times[times.len() - 1],
+                a.resolution
+            )
+        },
         sections,
     };
     let html = doc.to_html();
@@ -412,6 +424,53 @@ fn figures_section(m: &Measurement, figure: &Figure) -> Result<Section> {
         heading: "Motion and function".into(),
         blocks,
     })
+}
+
+/// A static model's figures: no time axis, so no charts over time, no cycle (stroke volume,
+/// ejection fraction, motion): each class's volume, centroid and bounding box, once.
+fn static_section(m: &Measurement) -> Section {
+    let (v, l) = (m.units.volume(), m.units.length());
+    let header = [
+        "class".to_string(),
+        format!("volume ({v})"),
+        format!("centroid ({l})"),
+        format!("bounding box ({l})"),
+    ]
+    .to_vec();
+    let xyz = |p: [f64; 3]| {
+        let p = m.frame.from_world(p).map(round);
+        format!("({}, {}, {})", p[0], p[1], p[2])
+    };
+    let rows = m
+        .motion
+        .classes
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let shape = &m.motion.shapes[0][k];
+            vec![
+                name.clone().into(),
+                round(m.volume(shape.volume)).to_string().into(),
+                shape.centroid.map_or("-".into(), xyz).into(),
+                shape
+                    .bounds
+                    .map_or("-".into(), |(lo, hi)| format!("{} to {}", xyz(lo), xyz(hi)))
+                    .into(),
+            ]
+        })
+        .collect();
+    Section {
+        heading: "Structures".into(),
+        blocks: vec![
+            Block::Paragraph(format!(
+                "A static model (trained on one timestep) is the same at every time: each \
+                 class's volume in {v}, centroid and bounding box in {l} ({} frame), measured \
+                 once. It has no motion, stroke volume or ejection fraction.",
+                m.frame.name()
+            )),
+            Block::Table(Table { header, rows }),
+        ],
+    }
 }
 
 /// The fields of one CSV line (quoted fields unquoted, `""` inside them a quote).
