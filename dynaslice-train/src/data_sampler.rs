@@ -5,7 +5,7 @@ use super::loss::{ContourSample, PlaneSample};
 use super::objective::Batch;
 use crate::sampling::{
     sample_space_time, ContourBatch, PlaneBatch, PlaneSampling, PlaneTarget, SampleRng, Sampler,
-    SamplingIndex, SpaceTimeBatch, SupportGate,
+    SamplingIndex, SpaceTimeBatch,
 };
 use dynaslice_core::Domain;
 use dynaslice_sequence::{Aabb, Sequence};
@@ -161,8 +161,6 @@ pub struct DataSampler {
     plane_split: Vec<usize>,
     /// Optional per-class weights of the contour and plane terms (1 by default).
     class_weight: Vec<f32>,
-    /// Where each class's minimum-surface term is off ([`SupportGate`]); `None`: nowhere.
-    gate: Option<SupportGate>,
 }
 
 impl DataSampler {
@@ -186,17 +184,6 @@ impl DataSampler {
         });
         let index = SamplingIndex::new(seq);
         let lengths = index.contour_lengths();
-        let roi = seq.roi_bounding_box();
-        let gate = SupportGate::new(
-            &index,
-            (roi.min, roi.max),
-            s,
-            |x| {
-                let p = domain.normalise(x.map(|v| v as f32), 0.0);
-                [p[0], p[1], p[2]]
-            },
-            |t| domain.normalise([0.0; 3], t as f32)[3],
-        );
         DataSampler {
             contour_split: counts.contour_split(&lengths),
             plane_split: counts.plane_split(&lengths),
@@ -216,23 +203,7 @@ impl DataSampler {
             space: SpaceTimeBatch::default(),
             per_class: vec![0; seq.classes().len()],
             class_weight: vec![1.0; seq.classes().len()],
-            gate: Some(gate),
         }
-    }
-
-    /// Applies the minimum-surface term at every space-time sample, as before the gate (the
-    /// ablation of [`SupportGate`]). Enters the fingerprint.
-    pub fn without_support_gate(mut self) -> DataSampler {
-        self.gate = None;
-        self.fingerprint = (self.fingerprint ^ 0x6761_7465).wrapping_mul(0x100_0000_01b3);
-        self
-    }
-
-    /// The gate's radius in world units (`None` without the gate), for the model's metadata.
-    pub fn support_gate_radius(&self) -> Option<f64> {
-        self.gate
-            .as_ref()
-            .map(|g| g.radius() as f64 * self.domain.scale[0] as f64)
     }
 
     /// Weights each class's contour and plane terms by `weights[k]` (one finite, positive weight
@@ -328,10 +299,6 @@ impl Sampler for DataSampler {
             });
         }
         self.normalise_into(&self.space.xyz, &self.space.t, &mut b.space_x);
-        match &self.gate {
-            Some(g) => g.fill(&b.space_x, self.num_classes, &mut b.space_gate),
-            None => b.space_gate.clear(),
-        }
     }
 
     fn max_set_len(&self) -> usize {
@@ -397,43 +364,6 @@ mod tests {
             ..counts
         };
         assert_eq!(small.contour_split(&[1.0, 9.0, 1.0, 1.0, 1.0]), vec![32; 5]);
-    }
-
-    /// The minimum-surface gate: one factor per space-time sample and class, 0 or 1; 0 at every
-    /// contour point of the class itself (within the gap radius of its own contour), 1 for every
-    /// class at the domain's corners (farther than the radius from every contour); the ablation
-    /// draws the same samples without a gate and has another fingerprint.
-    #[test]
-    fn support_gate_is_off_on_contours_and_on_far_away() {
-        let mut s = sampler();
-        let k = s.num_classes;
-        let mut b = Batch::default();
-        s.sample(5, 1, &mut b);
-        assert_eq!(b.space_gate.len(), b.space_x.len() * k);
-        assert!(b.space_gate.iter().all(|&g| g == 0.0 || g == 1.0));
-        let gate = s.gate.as_ref().unwrap();
-        let r = gate.radius();
-        assert!(r > 0.0 && r <= 0.25, "radius {r}");
-        let mut out = Vec::new();
-        gate.fill(&b.contour_x, k, &mut out);
-        for (i, c) in b.contour.iter().enumerate() {
-            assert_eq!(out[i * k + c.class as usize], 0.0, "contour point {i}");
-        }
-        let corners: Vec<[f32; 4]> = (0..8)
-            .map(|j| {
-                let v = |bit: usize| if j >> bit & 1 == 1 { 0.999 } else { -0.999 };
-                [v(0), v(1), v(2), 0.5]
-            })
-            .collect();
-        gate.fill(&corners, k, &mut out);
-        assert!(out.iter().all(|&g| g == 1.0), "{out:?}");
-        let print = s.fingerprint();
-        let mut plain = sampler().without_support_gate();
-        assert_ne!(plain.fingerprint(), print);
-        let mut ungated = Batch::default();
-        plain.sample(5, 1, &mut ungated);
-        assert_eq!(ungated.space_x, b.space_x);
-        assert!(ungated.space_gate.is_empty());
     }
 
     /// Class weights scale exactly their class's contour and plane sample weights, change the

@@ -29,14 +29,12 @@ fn reference_loss(reference: &Reference, b: &Batch, w: &LossWeights) -> f64 {
         loss += s.weight as f64 * w.plane as f64 * r * r;
     }
     let n = b.space_x.len() as f64;
-    for (i, x) in b.space_x.iter().enumerate() {
+    for x in &b.space_x {
         let (f, g) = reference.normalised(wide(*x));
-        let k = f.len();
-        for (c, (fc, gc)) in f.iter().zip(&g).enumerate() {
+        for (fc, gc) in f.iter().zip(&g) {
             let norm = (gc[0] * gc[0] + gc[1] * gc[1] + gc[2] * gc[2]).sqrt();
-            let gate = b.space_gate.get(i * k + c).map_or(1.0, |&v| v as f64);
             loss += w.regulariser as f64 / n
-                * ((norm - 1.0).powi(2) + gate * (-(w.alpha as f64) * fc.abs()).exp());
+                * ((norm - 1.0).powi(2) + (-(w.alpha as f64) * fc.abs()).exp());
         }
     }
     loss
@@ -54,13 +52,9 @@ fn batch_strategy(k: u32) -> impl Strategy<Value = Batch> {
     (
         proptest::collection::vec((point(), 0..k, normal), 1..12),
         proptest::collection::vec((point(), 0..k, -0.5f32..0.5, any::<bool>()), 1..12),
-        proptest::collection::vec(
-            (point(), proptest::collection::vec(any::<bool>(), 3)),
-            1..12,
-        ),
-        any::<bool>(),
+        proptest::collection::vec(point(), 1..12),
     )
-        .prop_map(move |(contour, plane, space, gated)| Batch {
+        .prop_map(|(contour, plane, space)| Batch {
             contour_x: contour.iter().map(|c| c.0).collect(),
             contour_normal: contour.iter().map(|c| c.2).collect(),
             contour: contour
@@ -80,21 +74,7 @@ fn batch_strategy(k: u32) -> impl Strategy<Value = Batch> {
                     weight: 1.0 / plane.len() as f32,
                 })
                 .collect(),
-            space_x: space.iter().map(|s| s.0).collect(),
-            // Half the batches gate the minimum-surface term per point and class (Eq. 8's
-            // term switched off near a class's contours), half leave it everywhere.
-            space_gate: if gated {
-                space
-                    .iter()
-                    .flat_map(|s| {
-                        s.1[..k as usize]
-                            .iter()
-                            .map(|&on| if on { 1.0 } else { 0.0 })
-                    })
-                    .collect()
-            } else {
-                Vec::new()
-            },
+            space_x: space,
         })
 }
 

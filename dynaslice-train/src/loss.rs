@@ -6,9 +6,7 @@
 //! - plane samples: λ_d·(f^k − SDF2D^k)² (Eq. 7), or, on a plane annotated for k that holds no
 //!   contour of k, λ_d·ReLU(b − f^k)² with b the lower bound the sampler provides (f^k must be
 //!   positive there: the plane misses structure k);
-//! - space-time samples, every channel: λ_r·[(‖∇ₓf^k‖ − 1)² + g^k·exp(−α|f^k|)] (Eq. 8), the
-//!   gate g^k ∈ {0, 1} switching the minimum-surface term off near class k's own contours
-//!   ([`crate::sampling::SupportGate`]: the paper applies it "away from observed slices").
+//! - space-time samples, every channel: λ_r·[(‖∇ₓf^k‖ − 1)² + exp(−α|f^k|)] (Eq. 8).
 //!
 //! Every term is a weighted sum over samples; the samplers set the weights (1/N per set and
 //! class, times optional class weights), so the sums are the paper's expectations.
@@ -136,14 +134,12 @@ pub fn plane(
     terms
 }
 
-/// Space-time terms on every channel; `weight` is the per-sample weight (1/N). `gate`, when
-/// not empty, holds `n × k` factors (point-major) of the minimum-surface term.
+/// Space-time terms on every channel; `weight` is the per-sample weight (1/N).
 pub fn space_time(
     out: &[f32],
     k: usize,
     n: usize,
     weight: f32,
-    gate: &[f32],
     w: &LossWeights,
     g: &mut [f32],
 ) -> LossTerms {
@@ -166,12 +162,7 @@ pub fn space_time(
                 g[((1 + d) * n + i) * k + c] = scale * grad[d];
             }
             let x = w.alpha * f.abs();
-            let gated = gate.get(i * k + c).copied().unwrap_or(1.0);
-            let ex = if x < EXP_CUTOFF && gated != 0.0 {
-                gated * (-x).exp()
-            } else {
-                0.0
-            };
+            let ex = if x < EXP_CUTOFF { (-x).exp() } else { 0.0 };
             terms.spurious += (weight * ex) as f64;
             g[i * k + c] = -lr * weight * w.alpha * sign(f) * ex;
         }

@@ -91,9 +91,6 @@ pub struct Batch {
     pub plane: Vec<PlaneSample>,
     /// Space-time samples (x, y, z, t); each weighs 1/len.
     pub space_x: Vec<[f32; INPUT_DIM]>,
-    /// Per space-time sample and class (point-major, `space_x.len() × K`), the factor of the
-    /// minimum-surface term exp(−α|f|) ([`crate::sampling::SupportGate`]); empty: 1 for all.
-    pub space_gate: Vec<f32>,
 }
 
 struct Worker {
@@ -199,14 +196,9 @@ impl Objective {
             }
             let c = chunk(batch.space_x.len(), parts, i);
             if !c.is_empty() {
-                let gate = batch
-                    .space_gate
-                    .get(c.start * k..c.end * k)
-                    .unwrap_or_default();
                 let x = &batch.space_x[c];
                 let out = w.space_time.forward(net, x);
-                let t =
-                    loss::space_time(out, k, x.len(), space_weight, gate, weights, &mut w.g_out);
+                let t = loss::space_time(out, k, x.len(), space_weight, weights, &mut w.g_out);
                 w.terms.add(&t);
                 w.space_time.backward(net, x, &w.g_out, &mut w.grad);
             }

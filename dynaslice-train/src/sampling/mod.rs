@@ -33,14 +33,12 @@ mod index;
 mod plane;
 mod rng;
 mod spacetime;
-mod support;
 
 pub use contour::ContourBatch;
 pub use index::SamplingIndex;
 pub use plane::{PlaneBatch, PlaneSampling, PlaneTarget};
 pub use rng::SampleRng;
 pub use spacetime::{sample_space_time, SpaceTimeBatch};
-pub use support::SupportGate;
 
 use crate::objective::Batch;
 
