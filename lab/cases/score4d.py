@@ -108,17 +108,17 @@ def score(pred, truth):
                 d = tree.query(vox)[0].min() * case.VOXEL
                 if d > FAR_MM:
                     far.append({"phase": round(q, 2), "voxels": int(len(vox)), "mm": round(float(d), 1)})
-        vp, vt = P.sum(axis=(0, 1, 2)), T.sum(axis=(0, 1, 2))
+        ratio = P.sum(axis=(0, 1, 2)) / np.maximum(T.sum(axis=(0, 1, 2)), 1)
         z = np.arange(P.shape[2])[None, None, :, None] * case.VOXEL
-        travel = [float(np.ptp((M * z).sum(axis=(0, 1, 2)) / np.maximum(M.sum(axis=(0, 1, 2)), 1)))
-                  for M in (P, T)]
+        centroid_z = [(M * z).sum(axis=(0, 1, 2)) / np.maximum(M.sum(axis=(0, 1, 2)), 1)
+                      for M in (P, T)]
+        travel = [float(np.ptp(c)) for c in centroid_z]
         out[name] = {
             "iou": round(float(inter.sum() / max(union.sum(), 1)), 4),
             "iou_contoured": round(float(inter[cont].sum() / max(union[cont].sum(), 1)), 4),
             "iou_min": round(float((inter / np.maximum(union, 1)).min()), 4),
             "volume_ratio": round(float(P.sum() / max(T.sum(), 1)), 3),
-            "volume_ratio_range": [round(float(r), 3) for r in
-                                   ((vp / np.maximum(vt, 1)).min(), (vp / np.maximum(vt, 1)).max())],
+            "volume_ratio_range": [round(float(r), 3) for r in (ratio.min(), ratio.max())],
             "si_travel_mm": [round(travel[0], 2), round(travel[1], 2)],
             "far_components": far,
         }
