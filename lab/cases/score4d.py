@@ -107,7 +107,8 @@ def score(pred, truth):
                 # distance (mm) from the component's nearest voxel to the nearest contour point
                 d = tree.query(vox)[0].min() * case.VOXEL
                 if d > FAR_MM:
-                    far.append({"phase": round(q, 2), "voxels": int(len(vox)), "mm": round(float(d), 1)})
+                    far.append({"phase": round(q, 2), "voxels": int(len(vox)),
+                                "mm": round(float(d), 1)})
         ratio = P.sum(axis=(0, 1, 2)) / np.maximum(T.sum(axis=(0, 1, 2)), 1)
         z = np.arange(P.shape[2])[None, None, :, None] * case.VOXEL
         centroid_z = [(M * z).sum(axis=(0, 1, 2)) / np.maximum(M.sum(axis=(0, 1, 2)), 1)
