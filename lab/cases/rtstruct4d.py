@@ -1,18 +1,21 @@
 """A 4D CT contouring case as a radiotherapy physicist has it: ten breathing phases, both lungs
 and a 17 mm tumour (GTV) riding the breathing 12 mm superior-inferior, contoured axially on
-every 3rd CT slice (7.5 mm apart) on the even phases, one DICOM RT Structure Set per contoured
-phase (pydicom), listed in a `.seq` manifest "<time> <path>"; the ground truth of all ten
-phases is a 4D label NIfTI (nibabel) on the CT's 2.5 mm grid.
+every 3rd CT slice (7.5 mm apart) on the even phases (or, with `--all`, on all ten), one DICOM
+RT Structure Set per contoured phase (pydicom), listed in a `.seq` manifest "<time> <path>";
+the ground truth is a 4D label NIfTI (nibabel) on the CT's 2.5 mm grid: the ten phases, or
+with `--all` 37 times 0.1 s apart over the contoured range (0-3.6 s: between the phases too).
 
 The anatomy is analytic, so contours and truth are exact: the lungs are ellipsoids whose bases
 descend with inspiration, the GTV a ball inside the right lung, cut out of it (RTSTRUCT even-odd
 rule: the GTV's circle inside the lung's contour is a hole of Lung_R, so the labels do not
 overlap). World frame: NIfTI RAS mm; the DICOM files are LPS (x and y negated).
 
-    python3 lab/cases/rtstruct4d.py OUT_DIR
+    python3 lab/cases/rtstruct4d.py OUT_DIR [--all]
 
-writes OUT_DIR/phase_P.dcm (P = 0, 2, 4, 6, 8), OUT_DIR/phases.seq, OUT_DIR/truth.nii.gz
-(labels 1 Lung_R, 2 Lung_L, 3 GTV; frame P at time 0.4·P s) and OUT_DIR/case.json (geometry).
+writes OUT_DIR/phase_P.dcm (P = 0, 2, 4, 6, 8; with --all 0-9), OUT_DIR/phases.seq,
+OUT_DIR/truth.nii.gz (labels 1 Lung_R, 2 Lung_L, 3 GTV; frame P at time 0.4·P s, with --all
+frame F at 0.1·F s) and OUT_DIR/case.json (geometry, the contoured phases and the truth's
+times, which lab/cases/score4d.py reads).
 """
 import json
 import math
@@ -29,6 +32,7 @@ from pydicom.uid import ExplicitVRLittleEndian, generate_uid
 PHASES = 10
 CONTOURED = [0, 2, 4, 6, 8]
 PHASE_SECONDS = 0.4
+ALL_TRUTH_FRAMES = 37  # --all: the truth every 0.1 s over phases 0-9
 VOXEL = 2.5
 SHAPE = (96, 64, 80)  # x, y, z voxels
 ORIGIN = (-118.75, -78.75, -98.75)  # RAS centre of voxel (0, 0, 0)
@@ -157,29 +161,39 @@ def write_rtstruct(path, polys, study, frame):
     ds.save_as(path, enforce_file_format=True)
 
 
-def main(out):
+def main(out, all_phases):
     os.makedirs(out, exist_ok=True)
     lines = []
     study, frame = generate_uid(), generate_uid()
-    for p in CONTOURED:
+    contoured = list(range(PHASES)) if all_phases else CONTOURED
+    # truth at these (fractional) phases: breath() and shapes() are analytic in the phase
+    if all_phases:
+        truth_phases = [(PHASES - 1) * f / (ALL_TRUTH_FRAMES - 1) for f in range(ALL_TRUTH_FRAMES)]
+    else:
+        truth_phases = list(range(PHASES))
+    for p in contoured:
         path = os.path.join(out, f"phase_{p}.dcm")
         write_rtstruct(path, contours(p), study, frame)
         lines.append(f"{PHASE_SECONDS * p:g} phase_{p}.dcm")
     with open(os.path.join(out, "phases.seq"), "w") as f:
         f.write("\n".join(lines) + "\n")
-    vol = np.stack([truth(p) for p in range(PHASES)], axis=-1)
+    vol = np.stack([truth(p) for p in truth_phases], axis=-1)
     affine = np.diag([VOXEL, VOXEL, VOXEL, 1.0])
     affine[:3, 3] = ORIGIN
     img = nib.Nifti1Image(vol, affine)
     img.header.set_xyzt_units("mm", "sec")
-    img.header["pixdim"][4] = PHASE_SECONDS
+    img.header["pixdim"][4] = PHASE_SECONDS * (truth_phases[1] - truth_phases[0])
     nib.save(img, os.path.join(out, "truth.nii.gz"))
     counts = {n: int((vol == i + 1).sum()) for i, n in enumerate(NAMES)}
     with open(os.path.join(out, "case.json"), "w") as f:
-        json.dump({"names": NAMES, "contoured_phases": CONTOURED, "phase_seconds": PHASE_SECONDS,
-                   "voxel_mm": VOXEL, "voxels_over_phases": counts}, f, indent=1)
+        json.dump({"names": NAMES, "contoured_phases": contoured, "phase_seconds": PHASE_SECONDS,
+                   "truth_phases": truth_phases, "voxel_mm": VOXEL,
+                   "voxels_over_phases": counts}, f, indent=1)
     print(json.dumps(counts))
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    args = [a for a in sys.argv[1:] if a != "--all"]
+    if len(args) != 1:
+        sys.exit(__doc__)
+    main(args[0], "--all" in sys.argv[1:])

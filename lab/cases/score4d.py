@@ -6,13 +6,16 @@ contoured phase for the others.
     python3 lab/cases/score4d.py CASE_DIR --itk            # the ITK baseline's scores
     python3 lab/cases/score4d.py CASE_DIR PRED.nii.gz      # a prediction's scores
 
-A prediction may hold the first phases only: `dynaslice labels` answers within the model's
-time range, which ends at the last contoured phase (8), so predictions are made on
-CASE_DIR/truth9.nii.gz (phases 0-8, written by rtstruct4d.py) and scored on those phases.
+The contoured phases and the truth's frames (as phases, fractional with `rtstruct4d.py --all`)
+come from CASE_DIR/case.json. A prediction may hold the first frames only: `dynaslice labels`
+answers within the model's time range, which ends at the last contoured phase; the frames the
+prediction has are scored.
 
-Prints one JSON line per source: per class the IoU pooled over all phases ("iou"), over the
-contoured phases ("iou_contoured"), the worst phase ("iou_min"), the predicted / true volume
-("volume_ratio") and the connected components (26-connected, per phase) farther than 5 mm from
+Prints one JSON line per source: per class the IoU pooled over all frames ("iou"), over the
+frames at contoured phases ("iou_contoured"), the worst frame ("iou_min"), the predicted / true
+volume ("volume_ratio"), its least and greatest value over the frames ("volume_ratio_range"),
+the superior-inferior travel of the class's centroid over the frames, predicted and true, mm
+("si_travel_mm"), and the connected components (26-connected, per frame) farther than 5 mm from
 every contour of their class on the bracketing contoured phases ("far_components", with their
 voxel counts and distances).
 """
@@ -54,23 +57,33 @@ def rasterise(phase):
     return vol
 
 
+def load_case(d):
+    """The contoured phases and the truth's frames (as phases) of the case in `d`."""
+    with open(os.path.join(d, "case.json")) as f:
+        c = json.load(f)
+    return c["contoured_phases"], c.get("truth_phases", list(range(case.PHASES)))
+
+
+CONTOURED, TRUTH_PHASES = case.CONTOURED, list(range(case.PHASES))
+
+
 def itk_baseline():
     import itk
 
     filled = {}
-    for p in case.CONTOURED:
+    for p in CONTOURED:
         arr = np.ascontiguousarray(rasterise(p).transpose(2, 1, 0))  # z, y, x for ITK
         img = itk.GetImageFromArray(arr)
         out = itk.morphological_contour_interpolator(img, axis=2)
         filled[p] = itk.GetArrayFromImage(out).transpose(2, 1, 0)
-    nearest = lambda q: min(case.CONTOURED, key=lambda p: (abs(p - q), p))  # noqa: E731
-    return np.stack([filled[nearest(q)] for q in range(case.PHASES)], axis=-1)
+    nearest = lambda q: min(CONTOURED, key=lambda p: (abs(p - q), p))  # noqa: E731
+    return np.stack([filled[nearest(q)] for q in TRUTH_PHASES], axis=-1)
 
 
 def bracketing(q):
     """The contoured phases nearest below and above phase q (one if q is contoured)."""
-    lo = [p for p in case.CONTOURED if p <= q]
-    hi = [p for p in case.CONTOURED if p >= q]
+    lo = [p for p in CONTOURED if p <= q]
+    hi = [p for p in CONTOURED if p >= q]
     return sorted({x for x in (lo[-1] if lo else None, hi[0] if hi else None) if x is not None})
 
 
@@ -80,31 +93,43 @@ def score(pred, truth):
         P, T = pred == value, truth == value
         inter = (P & T).sum(axis=(0, 1, 2))
         union = (P | T).sum(axis=(0, 1, 2))
-        cont = list(case.CONTOURED)
+        frames = range(P.shape[-1])
+        cont = [f for f in frames if TRUTH_PHASES[f] in CONTOURED]
         far = []
-        for q in range(P.shape[-1]):
+        for f in frames:
+            q = TRUTH_PHASES[f]
             pts = np.concatenate([to_index(poly) for p in bracketing(q)
                                   for poly in case.contours(p)[name]])
             tree = cKDTree(pts)
-            lab, n = components(P[..., q], return_num=True, connectivity=3)
+            lab, n = components(P[..., f], return_num=True, connectivity=3)
             for c in range(1, n + 1):
                 vox = np.argwhere(lab == c)
                 # distance (mm) from the component's nearest voxel to the nearest contour point
                 d = tree.query(vox)[0].min() * case.VOXEL
                 if d > FAR_MM:
-                    far.append({"phase": q, "voxels": int(len(vox)), "mm": round(float(d), 1)})
+                    far.append({"phase": round(q, 2), "voxels": int(len(vox)),
+                                "mm": round(float(d), 1)})
+        ratio = P.sum(axis=(0, 1, 2)) / np.maximum(T.sum(axis=(0, 1, 2)), 1)
+        z = np.arange(P.shape[2])[None, None, :, None] * case.VOXEL
+        centroid_z = [(M * z).sum(axis=(0, 1, 2)) / np.maximum(M.sum(axis=(0, 1, 2)), 1)
+                      for M in (P, T)]
+        travel = [float(np.ptp(c)) for c in centroid_z]
         out[name] = {
             "iou": round(float(inter.sum() / max(union.sum(), 1)), 4),
             "iou_contoured": round(float(inter[cont].sum() / max(union[cont].sum(), 1)), 4),
             "iou_min": round(float((inter / np.maximum(union, 1)).min()), 4),
             "volume_ratio": round(float(P.sum() / max(T.sum(), 1)), 3),
+            "volume_ratio_range": [round(float(r), 3) for r in (ratio.min(), ratio.max())],
+            "si_travel_mm": [round(travel[0], 2), round(travel[1], 2)],
             "far_components": far,
         }
     return out
 
 
 def main():
+    global CONTOURED, TRUTH_PHASES
     d = sys.argv[1]
+    CONTOURED, TRUTH_PHASES = load_case(d)
     truth = np.asarray(nib.load(os.path.join(d, "truth.nii.gz")).dataobj)
     if sys.argv[2] == "--itk":
         src, pred = "itk-morphological-contour-interpolation", itk_baseline()
