@@ -24,6 +24,7 @@ use super::reslice::{reslice, ResliceOptions};
 use super::rtstruct::{self, RoiExtent};
 use super::{csl, manifest, nifti, nrrd};
 use crate::input_kind::InputKind;
+use crate::nifti::HeaderSpacing;
 use dynaslice_sequence::error::{DataError, ErrorKind, Result};
 use dynaslice_sequence::native;
 use dynaslice_sequence::sequence::Sequence;
@@ -42,6 +43,8 @@ pub struct InputOptions {
     pub sparse_axes: SparseAxes,
     /// RT Structure Sets: where an ROI without a contour on a plane counts as absent.
     pub roi_extent: RoiExtent,
+    /// NIfTI label maps: where the voxel spacing comes from ([`HeaderSpacing`]).
+    pub header_spacing: HeaderSpacing,
     /// Label maps: the reslicing protocol and the label values to use (its `frames` is ignored:
     /// [`InputOptions::frames`] applies).
     pub reslice: ResliceOptions,
@@ -117,7 +120,7 @@ fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
     let (sequence, absence, generated) = match kind {
         InputKind::Nifti | InputKind::Nrrd => {
             let (volume, own) = match kind {
-                InputKind::Nifti => nifti::read_labelled_volume(path)?,
+                InputKind::Nifti => nifti::read_labelled_volume_with(path, options.header_spacing)?,
                 _ => nrrd::read_volume(path)?,
             };
             // The file's own table, then the colour tables beside it, then the user's.

@@ -11,6 +11,7 @@
 
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
+use dynaslice_data::nesting::{parse_nesting, whole_structures};
 use dynaslice_mesh::{self as mesh, Surfaces};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -38,8 +39,57 @@ pub struct ClassShape {
 }
 
 /// The solid of every class of `model` at world time `t` (model order), from the Eq. 11
-/// partition meshes with `resolution` cells along the longest axis of its domain.
+/// partition meshes with `resolution` cells along the longest axis of its domain. A class the
+/// model records as holding others (`nesting` in its metadata, `dynaslice_data::nesting`) is
+/// its whole structure: its own region and those nested in it (an epicardium's wall and
+/// cavity), as the user drew it.
 pub fn class_shapes(model: &Model, t: f64, resolution: u32) -> Result<Vec<ClassShape>> {
+    let labels: Vec<i32> = model.classes().map(|c| c.label).collect();
+    let pairs = parse_nesting(model.metadata(), &labels)
+        .map_err(|e| anyhow::anyhow!("the model's metadata: {e}"))?;
+    let own = partition_shapes(model, t, resolution)?;
+    Ok(whole_structures(&pairs, own.len())
+        .iter()
+        .map(|members| ClassShape::union(members.iter().map(|&k| &own[k])))
+        .collect())
+}
+
+impl ClassShape {
+    /// The solid made of disjoint solids `parts`: volumes add, the centroid is their
+    /// volume-weighted mean, the bounds their union.
+    pub fn union<'a>(parts: impl Iterator<Item = &'a ClassShape>) -> ClassShape {
+        let mut volume = 0.0;
+        let mut moment = [0.0; 3];
+        let mut bounds: Option<([f64; 3], [f64; 3])> = None;
+        let mut present = false;
+        for p in parts {
+            volume += p.volume;
+            if let Some(c) = p.centroid {
+                present = true;
+                for a in 0..3 {
+                    moment[a] += p.volume * c[a];
+                }
+            }
+            if let Some((lo, hi)) = p.bounds {
+                bounds = Some(match bounds {
+                    None => (lo, hi),
+                    Some((l, h)) => (
+                        std::array::from_fn(|a| l[a].min(lo[a])),
+                        std::array::from_fn(|a| h[a].max(hi[a])),
+                    ),
+                });
+            }
+        }
+        ClassShape {
+            volume,
+            centroid: (present && volume > 0.0).then(|| moment.map(|m| m / volume)),
+            bounds,
+        }
+    }
+}
+
+/// Each class's own region of the Eq. 11 partition as a solid.
+fn partition_shapes(model: &Model, t: f64, resolution: u32) -> Result<Vec<ClassShape>> {
     let classes: Vec<usize> = (0..model.num_classes()).collect();
     let options = mesh::Options {
         resolution,

@@ -18,6 +18,7 @@ use crate::trainer::{self, Progress};
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::ModelBytes;
 use dynaslice_output::write_atomically;
+use dynaslice_sequence::nesting::nesting_line;
 use dynaslice_sequence::{Sequence, Space, Units};
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -281,7 +282,11 @@ pub fn fit(
         counts,
         temporal_factor: spec.temporal_factor(),
         class_weights: spec.class_weights.as_deref(),
-        input: &input.lines(),
+        // Classes drawn nested and trained disjoint: outputs recompose the outer from it.
+        input: &match nesting_line(classes, seq.nesting()) {
+            Some(line) => format!("{}\n{line}", input.lines()),
+            None => input.lines(),
+        },
     }
     .to_bytes()
     .map_err(|e| anyhow!("cannot write the model: {e}"))?;

@@ -1,0 +1,171 @@
+//! Nested structures: one class drawn inside another, as contouring tools draw them (the
+//! endocardium inside the epicardium, a GTV inside its organ, GTV ⊂ CTV ⊂ PTV).
+//!
+//! Eq. 11 labels a point by the class of the most negative field, so two classes whose regions
+//! overlap by design cannot both keep their region: deep inside the inner structure the outer's
+//! signed distance is the more negative, and the inner loses its own inside. A sequence with
+//! nesting is therefore trained on disjoint regions, the outer as outer minus inner (the wall
+//! and the cavity, as every cardiac label map has them), and the pairs are recorded in the
+//! model ([`METADATA_KEY`]) so that outputs a user reads as whole structures (volumes, RT
+//! Structure Sets) put each outer back together as the union of its own region and those
+//! nested in it ([`whole_structures`]). Detection and the subtraction are `dynaslice-data`'s
+//! (`nesting.rs`).
+
+use crate::sequence::ClassInfo;
+
+/// One class drawn inside another, by class index: `inner`'s region lies within `outer`'s,
+/// and `outer` is the smallest class that holds it (its direct outer).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Nested {
+    /// The class inside.
+    pub inner: usize,
+    /// The class around it.
+    pub outer: usize,
+}
+
+/// The model metadata key recording the nesting: `nesting = 2:1 4:3`, each pair the source
+/// labels `inner:outer` of a class and its direct outer.
+pub const METADATA_KEY: &str = "nesting";
+
+/// Checks `pairs` over `classes` classes: valid and distinct indices, each class inside at most
+/// one direct outer, and no class inside itself through a chain.
+pub fn validate(pairs: &[Nested], classes: usize) -> Result<(), String> {
+    for (i, p) in pairs.iter().enumerate() {
+        if p.inner >= classes || p.outer >= classes {
+            return Err(format!(
+                "nesting {}:{} names a class beyond the {classes} there are",
+                p.inner, p.outer
+            ));
+        }
+        if p.inner == p.outer {
+            return Err(format!("class {} cannot be nested in itself", p.inner));
+        }
+        if pairs[..i].iter().any(|q| q.inner == p.inner) {
+            return Err(format!(
+                "class {} is nested in two classes; give it its direct outer only",
+                p.inner
+            ));
+        }
+    }
+    for p in pairs {
+        // Walk outwards: a chain longer than the classes is a cycle.
+        let mut at = p.outer;
+        for _ in 0..=classes {
+            match pairs.iter().find(|q| q.inner == at) {
+                Some(q) if q.outer == p.inner => {
+                    return Err(format!(
+                        "classes {} and {} are nested in each other",
+                        p.inner, p.outer
+                    ))
+                }
+                Some(q) => at = q.outer,
+                None => break,
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The metadata line of `pairs` (`nesting = 2:1 4:3`, by the classes' source labels), `None`
+/// without nesting.
+pub fn nesting_line(classes: &[ClassInfo], pairs: &[Nested]) -> Option<String> {
+    if pairs.is_empty() {
+        return None;
+    }
+    let value: Vec<String> = pairs
+        .iter()
+        .map(|p| format!("{}:{}", classes[p.inner].label, classes[p.outer].label))
+        .collect();
+    Some(format!("{METADATA_KEY} = {}", value.join(" ")))
+}
+
+/// The nesting a model's `metadata` records ([`nesting_line`]), as class indices of a model
+/// whose classes have source labels `labels` (channel order); empty where it records none.
+pub fn parse_nesting(metadata: &str, labels: &[i32]) -> Result<Vec<Nested>, String> {
+    let Some(value) = metadata.lines().find_map(|line| {
+        let (k, v) = line.split_once('=')?;
+        (k.trim() == METADATA_KEY).then(|| v.trim().to_string())
+    }) else {
+        return Ok(Vec::new());
+    };
+    let index = |s: &str| -> Result<usize, String> {
+        let label: i32 = s
+            .parse()
+            .map_err(|_| format!("{METADATA_KEY} = {value}: {s:?} is not a label"))?;
+        labels.iter().position(|&l| l == label).ok_or_else(|| {
+            format!("{METADATA_KEY} = {value}: the model has no class of label {label}")
+        })
+    };
+    let pairs = value
+        .split_whitespace()
+        .map(|pair| {
+            let (inner, outer) = pair
+                .split_once(':')
+                .ok_or_else(|| format!("{METADATA_KEY} = {value}: {pair:?} is not INNER:OUTER"))?;
+            Ok(Nested {
+                inner: index(inner)?,
+                outer: index(outer)?,
+            })
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    validate(&pairs, labels.len()).map_err(|e| format!("{METADATA_KEY} = {value}: {e}"))?;
+    Ok(pairs)
+}
+
+/// Per class of `classes`, the classes whose trained regions make up its whole structure: the
+/// class itself, then every class nested in it, directly or through a chain (a PTV: its own
+/// ring, the CTV's ring, the GTV). `pairs` must be valid ([`validate`]).
+pub fn whole_structures(pairs: &[Nested], classes: usize) -> Vec<Vec<usize>> {
+    (0..classes)
+        .map(|k| {
+            let mut members = vec![k];
+            let mut i = 0;
+            while i < members.len() {
+                let at = members[i];
+                members.extend(pairs.iter().filter(|p| p.outer == at).map(|p| p.inner));
+                i += 1;
+            }
+            members
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn class(label: i32) -> ClassInfo {
+        ClassInfo {
+            name: format!("c{label}"),
+            label,
+            color: None,
+        }
+    }
+
+    #[test]
+    fn the_metadata_line_round_trips_by_label() {
+        let classes = [class(7), class(3), class(5)];
+        let pairs = [Nested { inner: 1, outer: 0 }, Nested { inner: 2, outer: 1 }];
+        let line = nesting_line(&classes, &pairs).unwrap();
+        assert_eq!(line, "nesting = 3:7 5:3");
+        let metadata = format!("trainer = dynaslice\n{line}\nfinal_loss = 1\n");
+        assert_eq!(parse_nesting(&metadata, &[7, 3, 5]).unwrap(), pairs);
+        assert_eq!(parse_nesting("units = mm\n", &[7, 3]).unwrap(), []);
+        assert!(nesting_line(&classes, &[]).is_none());
+        let e = parse_nesting("nesting = 3:9\n", &[7, 3]).unwrap_err();
+        assert!(e.contains("no class of label 9"), "{e}");
+        let e = parse_nesting("nesting = 3:7 7:3\n", &[7, 3]).unwrap_err();
+        assert!(e.contains("nested in each other"), "{e}");
+    }
+
+    #[test]
+    fn whole_structures_follow_chains() {
+        // PTV 0 ⊃ CTV 1 ⊃ GTV 2; class 3 stands alone.
+        let pairs = [Nested { inner: 2, outer: 1 }, Nested { inner: 1, outer: 0 }];
+        assert!(validate(&pairs, 4).is_ok());
+        let whole = whole_structures(&pairs, 4);
+        assert_eq!(whole, vec![vec![0, 1, 2], vec![1, 2], vec![2], vec![3]]);
+        let twice = [Nested { inner: 2, outer: 1 }, Nested { inner: 2, outer: 0 }];
+        assert!(validate(&twice, 3).unwrap_err().contains("two classes"));
+    }
+}
