@@ -128,6 +128,14 @@ fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
                 .overlaid(&LabelTable::beside(path)?)
                 .overlaid(&options.table);
             let sequence = planes_of(&volume, &table, options).map_err(at)?;
+            // Frame f is at toffset + f × pixdim[4] (NIfTI; NRRD has no time origin), as
+            // `--like` places a reference's frames.
+            let sequence = match kind {
+                InputKind::Nifti => {
+                    shift_times(sequence, nifti::read_time_origin(path)?).map_err(at)?
+                }
+                _ => sequence,
+            };
             let generated = made_up(&sequence, &table);
             return Ok(Part {
                 path: path.to_path_buf(),
@@ -166,6 +174,18 @@ fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
         generated,
         frame_of_reference,
     })
+}
+
+/// `seq` with every frame's time moved by `origin`.
+fn shift_times(seq: Sequence, origin: f64) -> Result<Sequence> {
+    if origin == 0.0 {
+        return Ok(seq);
+    }
+    let (classes, mut frames) = seq.into_parts();
+    for f in &mut frames {
+        f.time += origin;
+    }
+    Sequence::new(classes, frames)
 }
 
 /// The planes of a label map, per [`InputOptions::planes`] (`table`: the file's own names and

@@ -287,7 +287,25 @@ pub fn read_geometry(path: &Path) -> Result<Geometry> {
         frames,
         affine,
         frame_interval: if dt == 0.0 { 1.0 } else { dt },
+        time_origin: time_origin(&header).map_err(at)?,
     })
+}
+
+/// The time of frame 0: `toffset`, in the units `xyzt_units` gives the times (as `pixdim[4]`).
+fn time_origin(h: &NiftiHeader) -> std::result::Result<f64, ErrorKind> {
+    let t = f64::from(h.toffset);
+    if t.is_finite() {
+        Ok(t)
+    } else {
+        Err(ErrorKind::Nifti(format!(
+            "toffset (time of the first frame) is {t}"
+        )))
+    }
+}
+
+/// The time of frame 0 of the NIfTI file at `path` (`toffset`), from its header.
+pub fn read_time_origin(path: &Path) -> Result<f64> {
+    read_geometry(path).map(|g| g.time_origin)
 }
 
 /// An opened NIfTI file: its bytes (decompressed when gzipped, detected by content) and how
