@@ -357,8 +357,10 @@ pub fn apply(seq: Sequence, mode: &NestingMode) -> Result<Sequence> {
     if pairs.is_empty() {
         return Ok(seq);
     }
+    // Said as a warning: the structures are trained otherwise than drawn, which a user must
+    // know (and can turn off).
     for p in &pairs {
-        log::info!(
+        log::warn!(
             "{} is drawn inside {}: trained as disjoint regions ({} as its region minus {}'s), \
              recomposed in volumes and RT Structure Sets (--nesting off to train them as drawn)",
             name(classes, p.inner),
