@@ -11,8 +11,6 @@
 //! nested in it ([`whole_structures`]). Detection and the subtraction are `dynaslice-data`'s
 //! (`nesting.rs`).
 
-use crate::sequence::ClassInfo;
-
 /// One class drawn inside another, by class index: `inner`'s region lies within `outer`'s,
 /// and `outer` is the smallest class that holds it (its direct outer).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -66,15 +64,15 @@ pub fn validate(pairs: &[Nested], classes: usize) -> Result<(), String> {
     Ok(())
 }
 
-/// The metadata line of `pairs` (`nesting = 2:1 4:3`, by the classes' source labels), `None`
-/// without nesting.
-pub fn nesting_line(classes: &[ClassInfo], pairs: &[Nested]) -> Option<String> {
+/// The metadata line of `pairs` (`nesting = 2:1 4:3`, by the source labels `labels` of the
+/// classes, in class order), `None` without nesting.
+pub fn nesting_line(labels: &[i32], pairs: &[Nested]) -> Option<String> {
     if pairs.is_empty() {
         return None;
     }
     let value: Vec<String> = pairs
         .iter()
-        .map(|p| format!("{}:{}", classes[p.inner].label, classes[p.outer].label))
+        .map(|p| format!("{}:{}", labels[p.inner], labels[p.outer]))
         .collect();
     Some(format!("{METADATA_KEY} = {}", value.join(" ")))
 }
@@ -134,17 +132,9 @@ pub fn whole_structures(pairs: &[Nested], classes: usize) -> Vec<Vec<usize>> {
 mod tests {
     use super::*;
 
-    fn class(label: i32) -> ClassInfo {
-        ClassInfo {
-            name: format!("c{label}"),
-            label,
-            color: None,
-        }
-    }
-
     #[test]
     fn the_metadata_line_round_trips_by_label() {
-        let classes = [class(7), class(3), class(5)];
+        let classes = [7, 3, 5];
         let pairs = [Nested { inner: 1, outer: 0 }, Nested { inner: 2, outer: 1 }];
         let line = nesting_line(&classes, &pairs).unwrap();
         assert_eq!(line, "nesting = 3:7 5:3");

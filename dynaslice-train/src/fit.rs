@@ -283,7 +283,10 @@ pub fn fit(
         temporal_factor: spec.temporal_factor(),
         class_weights: spec.class_weights.as_deref(),
         // Classes drawn nested and trained disjoint: outputs recompose the outer from it.
-        input: &match nesting_line(classes, seq.nesting()) {
+        input: &match nesting_line(
+            &classes.iter().map(|c| c.label).collect::<Vec<_>>(),
+            seq.nesting(),
+        ) {
             Some(line) => format!("{}\n{line}", input.lines()),
             None => input.lines(),
         },
