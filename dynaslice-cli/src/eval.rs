@@ -391,7 +391,11 @@ fn split(a: SplitArgs) -> Result<()> {
     let inputs = a.input.inputs.iter().chain(&a.input.label_names);
     let mut plan = Plan::new(inputs, a.force);
     plan.file("-o", &a.output, Kind::TrainingInput)?;
-    let seq = input::read(&a.input)?;
+    // The contours as drawn: nested structures are found again (and made disjoint) when the
+    // split is trained on, so the model records its nesting.
+    let mut spec = a.input.spec();
+    spec.nesting = Some(dynaslice_data::nesting::NestingMode::Off);
+    let seq = spec.read()?;
     let train = a
         .holdout
         .split()

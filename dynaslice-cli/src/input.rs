@@ -6,6 +6,8 @@ use anyhow::{bail, Result};
 use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::input_spec::InputSpec;
+use dynaslice_data::nesting::NestingMode;
+use dynaslice_data::nifti::HeaderSpacing;
 use dynaslice_data::reslice::ResliceOptions;
 use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::Sequence;
@@ -60,6 +62,18 @@ pub struct InputArgs {
     /// smallest voxel spacing, or the labelled box's longest diagonal / 1536 where coarser).
     #[arg(long, value_parser = positive_f64)]
     pub pixel: Option<f64>,
+    /// Classes drawn one inside another (an endocardium inside its epicardium, a GTV inside
+    /// its organ): `auto` finds them from the contours and trains the outer as its region minus
+    /// the inner's, recomposed in volumes and RT Structure Sets; `off` trains every class as
+    /// drawn; `INNER:OUTER,…` (labels) names the pairs.
+    #[arg(long, default_value_t = NestingMode::Auto, value_name = "auto|off|INNER:OUTER,…")]
+    pub nesting: NestingMode,
+    /// NIfTI label maps: the voxel spacing where the header disagrees with itself. `auto`: the
+    /// sform where sform_code > 0, else the qform (nibabel's rule), warning where the sform's
+    /// spacing and pixdim differ; `sform`; `qform`; `pixdim`: the sform's orientation and
+    /// origin with pixdim's spacing.
+    #[arg(long, default_value_t = HeaderSpacing::Auto, value_name = "auto|sform|qform|pixdim")]
+    pub header_spacing: HeaderSpacing,
 }
 
 impl InputArgs {
@@ -81,6 +95,8 @@ impl InputArgs {
             axial_step: Some(self.axial_step),
             labels: self.labels.clone(),
             pixel: self.pixel,
+            nesting: Some(self.nesting.clone()),
+            header_spacing: Some(self.header_spacing),
         }
     }
 }

@@ -41,9 +41,9 @@ pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,
     /// Reference NIfTI image: the volume gets its dimensions, affine and frames (frame f at
-    /// time f · its frame interval, as when training on it); only its header is read, so any
-    /// voxel type will do.
-    #[arg(long, value_name = "REF.nii.gz", conflicts_with_all = ["bounds", "spacing", "times"])]
+    /// time toffset + f · pixdim[4], as when training on it; --times gives other times on its
+    /// grid); only its header is read, so any voxel type will do.
+    #[arg(long, value_name = "REF.nii.gz", conflicts_with_all = ["bounds", "spacing"])]
     like: Option<PathBuf>,
     /// World box X0,Y0,Z0,X1,Y1,Z1 (default: the model's domain).
     #[arg(
@@ -57,8 +57,8 @@ pub struct Args {
     /// Voxel size: one value, or SX,SY,SZ (default: 128 voxels along the longest axis).
     #[arg(long, value_delimiter = ',', value_parser = positive_f64, allow_negative_numbers = true)]
     spacing: Option<Vec<f64>>,
-    /// Frames at these times: a list (0,0.5,1) or A:B:N, N evenly from A to B inclusive
-    /// (default: the model's time range in 10
+    /// Frames at these times, in the model's time units: a list (0,0.5,1) or A:B:N, N evenly
+    /// from A to B inclusive (default: --like's frames, else the model's time range in 10
     /// frames; a static model, the same at every time, gets one frame).
     #[arg(long, value_name = "TIMES", allow_hyphen_values = true,
           value_parser = time_series(MAX_TIMES))]
@@ -115,7 +115,11 @@ pub fn run(a: Args) -> Result<()> {
         // (and checked below) before anything is allocated for it.
         Some(reference) => {
             regular_file("reference", reference)?;
-            VoxelGrid::like(&read_geometry(reference)?)
+            let mut grid = VoxelGrid::like(&read_geometry(reference)?);
+            if let Some(series) = &a.times {
+                grid.times = series.times();
+            }
+            grid
         }
         None => bounds_grid(&a, &model, file.is_static())?,
     };
@@ -136,13 +140,20 @@ pub fn run(a: Args) -> Result<()> {
     }
     // The one time rule: a frame outside the model's range (a --times series past it, or a
     // reference with more or longer frames) is refused, never extrapolated.
-    let option = if a.like.is_some() {
+    let from_like = a.like.is_some() && a.times.is_none();
+    let option = if from_like {
         "--like's frame time"
     } else {
         "--times"
     };
     if !file.is_static() {
-        file.check_times(option, grid.times.iter().copied())?;
+        file.check_times(option, grid.times.iter().copied())
+            .map_err(|e| match from_like {
+                true => anyhow::anyhow!(
+                    "{e:#}; --like's frame f is at toffset + f × pixdim[4] of its header: give                      --times A:B:N for other times on its grid"
+                ),
+                false => e,
+            })?;
     }
     let [nx, ny, nz] = grid.dims;
     memory::check(

@@ -10,6 +10,7 @@ use super::progress::Progress;
 use super::times::times_option;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::Model;
+use dynaslice_data::nesting::whole_structures;
 use dynaslice_data::nifti::read_geometry;
 use dynaslice_data::rtstruct::image_series::{self, CtSeries};
 use dynaslice_data::rtstruct::write::{
@@ -19,7 +20,7 @@ use dynaslice_data::rtstruct::write::{
 use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::{manifest, FrameRange, Plane, Rect, TimeSeries};
 use dynaslice_geometry::Polygon;
-use dynaslice_mesh::planar::{contour_plane, PlanarOptions, PlaneField, Union, EVERYWHERE};
+use dynaslice_mesh::planar::{contour_plane, PlanarOptions, PlaneField, Union, Whole, EVERYWHERE};
 use dynaslice_mesh::{LevelSets, Surfaces};
 use dynaslice_model::ModelFile;
 use dynaslice_output::Plan;
@@ -37,7 +38,9 @@ Planes: every slice of --ct (the planning CT's images, each contour referencing 
 else every slice of --like-grid (a NIfTI image of the patient), else every plane that --like
 has contours on; only where the plane meets the model's domain. Contours: the Eq. 11 label
 regions (what `dynaslice labels` writes), their boundaries placed on the model's zero level set,
-simplified to --tolerance; holes as separate contours inside their outer one (even-odd rule).
+simplified to --tolerance; holes as separate contours inside their outer one (even-odd rule). A
+class drawn around others (nesting, see `dynaslice train --nesting`) is written whole: its own
+region and theirs, as it was drawn.
 
 Each file carries --like's patient, study, frame of reference and referenced series, and each
 class its ROI (matched by name): ROI Number, Name, Display Color and RT ROI Interpreted Type.")]
@@ -155,14 +158,24 @@ pub fn run(a: Args) -> Result<()> {
         .context("cannot start worker threads")?;
     let start = Instant::now();
     let classes: Vec<usize> = (0..model.num_classes()).collect();
-    let level_sets = |t: f64| {
-        LevelSets::new(
+    // Nested classes (trained disjoint) are written whole: an outer ROI is its own region and
+    // those nested in it, as drawn.
+    let groups = whole_structures(
+        &file
+            .record()
+            .nested(&model)
+            .map_err(|e| anyhow!("{}: {e}", a.model.display()))?,
+        classes.len(),
+    );
+    let level_sets = |t: f64| Whole {
+        field: LevelSets::new(
             &model,
             t as f32,
             classes.clone(),
             Surfaces::Partition,
             EVERYWHERE,
-        )
+        ),
+        groups: groups.clone(),
     };
     // Each time (and the ITV) contours every plane: tens of seconds on a loaded machine.
     let progress = Progress::new(

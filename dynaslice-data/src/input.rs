@@ -24,6 +24,7 @@ use super::reslice::{reslice, ResliceOptions};
 use super::rtstruct::{self, RoiExtent};
 use super::{csl, manifest, nifti, nrrd};
 use crate::input_kind::InputKind;
+use crate::nifti::HeaderSpacing;
 use dynaslice_sequence::error::{DataError, ErrorKind, Result};
 use dynaslice_sequence::native;
 use dynaslice_sequence::sequence::Sequence;
@@ -42,6 +43,8 @@ pub struct InputOptions {
     pub sparse_axes: SparseAxes,
     /// RT Structure Sets: where an ROI without a contour on a plane counts as absent.
     pub roi_extent: RoiExtent,
+    /// NIfTI label maps: where the voxel spacing comes from ([`HeaderSpacing`]).
+    pub header_spacing: HeaderSpacing,
     /// Label maps: the reslicing protocol and the label values to use (its `frames` is ignored:
     /// [`InputOptions::frames`] applies).
     pub reslice: ResliceOptions,
@@ -117,7 +120,7 @@ fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
     let (sequence, absence, generated) = match kind {
         InputKind::Nifti | InputKind::Nrrd => {
             let (volume, own) = match kind {
-                InputKind::Nifti => nifti::read_labelled_volume(path)?,
+                InputKind::Nifti => nifti::read_labelled_volume_with(path, options.header_spacing)?,
                 _ => nrrd::read_volume(path)?,
             };
             // The file's own table, then the colour tables beside it, then the user's.
@@ -125,6 +128,14 @@ fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
                 .overlaid(&LabelTable::beside(path)?)
                 .overlaid(&options.table);
             let sequence = planes_of(&volume, &table, options).map_err(at)?;
+            // Frame f is at toffset + f × pixdim[4] (NIfTI; NRRD has no time origin), as
+            // `--like` places a reference's frames.
+            let sequence = match kind {
+                InputKind::Nifti => {
+                    shift_times(sequence, nifti::read_time_origin(path)?).map_err(at)?
+                }
+                _ => sequence,
+            };
             let generated = made_up(&sequence, &table);
             return Ok(Part {
                 path: path.to_path_buf(),
@@ -163,6 +174,18 @@ fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
         generated,
         frame_of_reference,
     })
+}
+
+/// `seq` with every frame's time moved by `origin`.
+fn shift_times(seq: Sequence, origin: f64) -> Result<Sequence> {
+    if origin == 0.0 {
+        return Ok(seq);
+    }
+    let (classes, mut frames) = seq.into_parts();
+    for f in &mut frames {
+        f.time += origin;
+    }
+    Sequence::new(classes, frames)
 }
 
 /// The planes of a label map, per [`InputOptions::planes`] (`table`: the file's own names and

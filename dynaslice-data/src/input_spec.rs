@@ -6,6 +6,8 @@ use crate::drawn_slices::{PlaneMode, SparseAxes};
 use crate::frame_range::FrameRange;
 use crate::input::{self, InputOptions};
 use crate::label_table::LabelTable;
+use crate::nesting::{self, NestingMode};
+use crate::nifti::HeaderSpacing;
 use crate::reslice::ResliceOptions;
 use crate::rtstruct::RoiExtent;
 use dynaslice_sequence::error::Result;
@@ -36,6 +38,12 @@ pub struct InputSpec {
     pub labels: Option<Vec<i32>>,
     /// Label maps: the resliced planes' in-plane sampling step, world units.
     pub pixel: Option<f64>,
+    /// Classes drawn one inside another: detected, given, or trained as drawn
+    /// ([`crate::nesting`]).
+    pub nesting: Option<NestingMode>,
+    /// NIfTI label maps: where the voxel spacing comes from when the header's transforms and
+    /// `pixdim` disagree ([`HeaderSpacing`]).
+    pub header_spacing: Option<HeaderSpacing>,
 }
 
 impl InputSpec {
@@ -66,6 +74,7 @@ impl InputSpec {
             planes: self.planes.unwrap_or(d.planes),
             sparse_axes: self.drawn_axes.unwrap_or(d.sparse_axes),
             roi_extent: self.roi_extent.unwrap_or(d.roi_extent),
+            header_spacing: self.header_spacing.unwrap_or(d.header_spacing),
             reslice: ResliceOptions {
                 rotated: self.rotated_planes.unwrap_or(d.reslice.rotated),
                 axial_step: self.axial_step.unwrap_or(d.reslice.axial_step),
@@ -76,9 +85,12 @@ impl InputSpec {
         })
     }
 
-    /// Reads the inputs into one sequence.
+    /// Reads the inputs into one sequence, nested classes made disjoint as
+    /// [`InputSpec::nesting`] says ([`nesting::apply`]).
     pub fn read(&self) -> Result<Sequence> {
-        input::read(&self.inputs, &self.options()?)
+        let seq = input::read(&self.inputs, &self.options()?)?;
+        nesting::apply(seq, &self.nesting.clone().unwrap_or_default())
+            .map_err(|e| e.in_file(std::path::Path::new(&self.describe())))
     }
 
     /// The frame and units of the inputs' coordinates ([`input::space_of`]).

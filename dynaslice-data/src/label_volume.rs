@@ -42,6 +42,7 @@ impl LabelVolume {
             frames: self.frames,
             affine: self.affine,
             frame_interval: self.frame_interval,
+            time_origin: 0.0,
         }
     }
 }
@@ -58,6 +59,9 @@ pub struct Geometry {
     pub affine: [[f64; 4]; 3],
     /// Time between frames (`pixdim[4]`, 0 read as 1).
     pub frame_interval: f64,
+    /// Time of the first frame: NIfTI's `toffset` (0 for a volume in memory, whose frame f is
+    /// at f × `frame_interval`). Frame f is at `time_origin + f × frame_interval`.
+    pub time_origin: f64,
 }
 
 /// Determinant of an affine's 3×3 linear part (the voxel volume, up to sign).

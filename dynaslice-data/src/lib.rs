@@ -12,6 +12,7 @@
 //! | NIfTI label volume, resliced | [`nifti::read`] with [`reslice::ResliceOptions`] |
 //! | label names and colours (text, NIfTI XML, Slicer `.ctbl`, ITK-SNAP) | [`LabelTable`] |
 //! | DICOM RT Structure Set (RTSTRUCT) | [`rtstruct::read`] |
+//! | classes drawn one inside another: found, made disjoint for training | [`nesting`] |
 //! | a label map's planes: reslicing, drawn slices, several inputs in one | [`reslice`], [`drawn_slices`], [`combine`] |
 //!
 //! Every reader returns a validated [`Sequence`] or a [`DataError`] that names the file, line,
@@ -31,6 +32,7 @@ pub mod input_spec;
 pub mod label_table;
 pub mod label_volume;
 pub mod manifest;
+pub mod nesting;
 pub mod nifti;
 pub mod nifti_stream;
 pub mod nrrd;

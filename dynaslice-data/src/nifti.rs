@@ -29,6 +29,59 @@ pub fn read_volume(path: &Path) -> Result<LabelVolume> {
     read_labelled_volume(path).map(|(volume, _)| volume)
 }
 
+/// Relative difference between two voxel spacings beyond which a header disagrees with itself:
+/// more than the rounding of a spacing written to 3 significant digits (1.56 for 1.5625).
+pub const SPACING_TOLERANCE: f64 = 5e-3;
+
+/// Where a NIfTI file's voxel-to-world transform takes its voxel spacing from. A header holds
+/// it up to three times: the sform's columns, the qform (whose spacing is `pixdim[1..3]`), and
+/// `pixdim` itself; real exports disagree (an sform of unit spacing beside a `pixdim` of
+/// 1.56 × 1.56 × 10 mm), and every distance and volume follows the one used.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum HeaderSpacing {
+    /// The NIfTI-1 rule as nibabel applies it (`get_best_affine`): the sform where
+    /// `sform_code > 0`, else the qform where `qform_code > 0`, else `pixdim` alone; a warning
+    /// names both spacings where the sform's and `pixdim` disagree.
+    #[default]
+    Auto,
+    /// The sform (refused where `sform_code` is 0).
+    Sform,
+    /// The qform: the quaternion's rotation, `pixdim`'s spacing, the qoffset (refused where
+    /// `qform_code` is 0).
+    Qform,
+    /// The transform [`HeaderSpacing::Auto`] picks, each voxel axis rescaled to `pixdim`'s
+    /// spacing: its orientation and origin kept.
+    Pixdim,
+}
+
+impl std::fmt::Display for HeaderSpacing {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            HeaderSpacing::Auto => "auto",
+            HeaderSpacing::Sform => "sform",
+            HeaderSpacing::Qform => "qform",
+            HeaderSpacing::Pixdim => "pixdim",
+        })
+    }
+}
+
+impl std::str::FromStr for HeaderSpacing {
+    type Err = String;
+
+    /// `auto`, `sform`, `qform` or `pixdim`.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "auto" => Ok(HeaderSpacing::Auto),
+            "sform" => Ok(HeaderSpacing::Sform),
+            "qform" => Ok(HeaderSpacing::Qform),
+            "pixdim" => Ok(HeaderSpacing::Pixdim),
+            _ => Err(format!(
+                "expected `auto`, `sform`, `qform` or `pixdim`, found `{s}`"
+            )),
+        }
+    }
+}
+
 /// Bytes of header extensions read for a label table; extensions beyond them are skipped unread.
 const MAX_EXTENSION_BYTES: usize = 64 << 20;
 
@@ -41,6 +94,14 @@ const MAX_EXTENSION_BYTES: usize = 64 << 20;
 /// `vox_offset` (the extensions before it are skipped unread), as many bytes as the header's
 /// dimensions and datatype need, and a gzip stream is read to its end so its checksum is verified.
 pub fn read_labelled_volume(path: &Path) -> Result<(LabelVolume, LabelTable)> {
+    read_labelled_volume_with(path, HeaderSpacing::Auto)
+}
+
+/// [`read_labelled_volume`] with the voxel spacing taken as `spacing` says.
+pub fn read_labelled_volume_with(
+    path: &Path,
+    spacing: HeaderSpacing,
+) -> Result<(LabelVolume, LabelTable)> {
     let at = |kind: ErrorKind| DataError::new(kind).in_file(path);
     let unreadable =
         |e: &dyn std::fmt::Display| at(ErrorKind::Nifti(format!("unreadable or truncated: {e}")));
@@ -67,7 +128,7 @@ pub fn read_labelled_volume(path: &Path) -> Result<(LabelVolume, LabelTable)> {
     })?;
     let datatype = voxel_type(datatype).map_err(at)?;
     let (dims, frames) = dimensions(&header).map_err(at)?;
-    let affine = affine(&header).map_err(at)?;
+    let affine = affine_as(&header, spacing, path).map_err(at)?;
     check_scaling(&header).map_err(at)?;
     let (start, size) = data_extent(&header, datatype, dims, frames, capacity, gz).map_err(at)?;
     let skip = (start - HEADER_SIZE) as u64;
@@ -201,7 +262,7 @@ pub fn read_geometry(path: &Path) -> Result<Geometry> {
         )))
     })?;
     let (dims, frames) = dimensions(&header).map_err(at)?;
-    let affine = affine(&header).map_err(at)?;
+    let affine = affine_as(&header, HeaderSpacing::Auto, path).map_err(at)?;
     // A header promising more voxels than the file can hold is refused here, before a caller
     // sizes anything (a grid, a frame count) by it.
     let bits = usize::try_from(header.bitpix)
@@ -226,7 +287,25 @@ pub fn read_geometry(path: &Path) -> Result<Geometry> {
         frames,
         affine,
         frame_interval: if dt == 0.0 { 1.0 } else { dt },
+        time_origin: time_origin(&header).map_err(at)?,
     })
+}
+
+/// The time of frame 0: `toffset`, in the units `xyzt_units` gives the times (as `pixdim[4]`).
+fn time_origin(h: &NiftiHeader) -> std::result::Result<f64, ErrorKind> {
+    let t = f64::from(h.toffset);
+    if t.is_finite() {
+        Ok(t)
+    } else {
+        Err(ErrorKind::Nifti(format!(
+            "toffset (time of the first frame) is {t}"
+        )))
+    }
+}
+
+/// The time of frame 0 of the NIfTI file at `path` (`toffset`), from its header.
+pub fn read_time_origin(path: &Path) -> Result<f64> {
+    read_geometry(path).map(|g| g.time_origin)
 }
 
 /// An opened NIfTI file: its bytes (decompressed when gzipped, detected by content) and how
@@ -383,43 +462,138 @@ fn dimensions(h: &NiftiHeader) -> std::result::Result<([usize; 3], usize), Error
     Ok((dims, d(4)))
 }
 
+/// The length of voxel axis `i`'s column of `a`: its voxel spacing.
+fn column_norm(a: &[[f64; 4]; 3], i: usize) -> f64 {
+    (0..3).map(|r| a[r][i] * a[r][i]).sum::<f64>().sqrt()
+}
+
+/// `pixdim[1..3]` as spacings, where all three are positive and finite.
+fn pixdim_spacing(h: &NiftiHeader) -> Option<[f64; 3]> {
+    let s = [1, 2, 3].map(|k| f64::from(h.pixdim[k]).abs());
+    s.iter().all(|v| v.is_finite() && *v > 0.0).then_some(s)
+}
+
+fn spacing_text(s: [f64; 3]) -> String {
+    let short = |v: f64| format!("{}", (v * 1e4).round() / 1e4);
+    format!("{} × {} × {}", short(s[0]), short(s[1]), short(s[2]))
+}
+
+/// Voxel → world as `spacing` says ([`HeaderSpacing`]), with a warning naming the file where
+/// the sform's spacing and `pixdim` disagree by more than [`SPACING_TOLERANCE`].
+fn affine_as(
+    h: &NiftiHeader,
+    spacing: HeaderSpacing,
+    path: &Path,
+) -> std::result::Result<[[f64; 4]; 3], ErrorKind> {
+    let sform = [h.srow_x, h.srow_y, h.srow_z].map(|r| r.map(f64::from));
+    let pixdim = pixdim_spacing(h);
+    let disagree = |a: &[[f64; 4]; 3]| {
+        let own: [f64; 3] = std::array::from_fn(|i| column_norm(a, i));
+        pixdim
+            .filter(|p| (0..3).any(|i| (own[i] - p[i]).abs() > SPACING_TOLERANCE * p[i]))
+            .map(|p| (own, p))
+    };
+    let a = match spacing {
+        HeaderSpacing::Sform if h.sform_code <= 0 => {
+            return Err(ErrorKind::Nifti(format!(
+                "--header-spacing sform: sform_code is {}, the header has no sform",
+                h.sform_code
+            )))
+        }
+        HeaderSpacing::Qform if h.qform_code <= 0 => {
+            return Err(ErrorKind::Nifti(format!(
+                "--header-spacing qform: qform_code is {}, the header has no qform",
+                h.qform_code
+            )))
+        }
+        HeaderSpacing::Sform => sform,
+        HeaderSpacing::Qform => qform(h),
+        HeaderSpacing::Auto | HeaderSpacing::Pixdim => {
+            let a = affine(h)?;
+            match (spacing, h.sform_code > 0, disagree(&a)) {
+                (HeaderSpacing::Pixdim, _, Some((_, p))) => std::array::from_fn(|r| {
+                    let mut row = a[r];
+                    for (i, v) in row.iter_mut().take(3).enumerate() {
+                        *v *= p[i] / column_norm(&a, i);
+                    }
+                    row
+                }),
+                (HeaderSpacing::Auto, true, Some((own, p))) => {
+                    log::warn!(
+                        "{}: the sform (sform_code {}) gives voxel spacing {} but pixdim says {}                          (the qform's spacing{}); using the sform, as the NIfTI-1 rule and                          nibabel do where sform_code > 0; --header-spacing pixdim keeps the                          sform's orientation and origin with pixdim's spacing{}",
+                        path.display(),
+                        h.sform_code,
+                        spacing_text(own),
+                        spacing_text(p),
+                        if h.qform_code > 0 {
+                            format!(", qform_code {}", h.qform_code)
+                        } else {
+                            ", though qform_code is 0".into()
+                        },
+                        if h.qform_code > 0 {
+                            ", --header-spacing qform uses the qform"
+                        } else {
+                            ""
+                        }
+                    );
+                    a
+                }
+                _ => a,
+            }
+        }
+    };
+    let finite = a.iter().flatten().all(|v| v.is_finite());
+    if !finite || det3(&a) == 0.0 {
+        return Err(ErrorKind::Nifti(format!(
+            "voxel-to-world transform is singular or not finite: {a:?}"
+        )));
+    }
+    Ok(a)
+}
+
+/// The qform's voxel → world: the quaternion's rotation, `pixdim`'s spacing (qfac from
+/// `pixdim[0]`), the qoffset.
+fn qform(h: &NiftiHeader) -> [[f64; 4]; 3] {
+    let (b, c, d) = (
+        f64::from(h.quatern_b),
+        f64::from(h.quatern_c),
+        f64::from(h.quatern_d),
+    );
+    let a = (1.0 - (b * b + c * c + d * d)).max(0.0).sqrt();
+    let r = [
+        [
+            a * a + b * b - c * c - d * d,
+            2.0 * (b * c - a * d),
+            2.0 * (b * d + a * c),
+        ],
+        [
+            2.0 * (b * c + a * d),
+            a * a + c * c - b * b - d * d,
+            2.0 * (c * d - a * b),
+        ],
+        [
+            2.0 * (b * d - a * c),
+            2.0 * (c * d + a * b),
+            a * a + d * d - c * c - b * b,
+        ],
+    ];
+    let qfac = if h.pixdim[0] < 0.0 { -1.0 } else { 1.0 };
+    let s = [
+        f64::from(h.pixdim[1]),
+        f64::from(h.pixdim[2]),
+        qfac * f64::from(h.pixdim[3]),
+    ];
+    let o = [h.quatern_x, h.quatern_y, h.quatern_z].map(f64::from);
+    std::array::from_fn(|i| [r[i][0] * s[0], r[i][1] * s[1], r[i][2] * s[2], o[i]])
+}
+
 /// Voxel → world per the NIfTI-1 rules: sform if `sform_code > 0`, else qform if
 /// `qform_code > 0`, else the voxel spacing alone.
 fn affine(h: &NiftiHeader) -> std::result::Result<[[f64; 4]; 3], ErrorKind> {
-    let a = if h.sform_code > 0 {
+    Ok(if h.sform_code > 0 {
         [h.srow_x, h.srow_y, h.srow_z].map(|r| r.map(f64::from))
     } else if h.qform_code > 0 {
-        let (b, c, d) = (
-            f64::from(h.quatern_b),
-            f64::from(h.quatern_c),
-            f64::from(h.quatern_d),
-        );
-        let a = (1.0 - (b * b + c * c + d * d)).max(0.0).sqrt();
-        let r = [
-            [
-                a * a + b * b - c * c - d * d,
-                2.0 * (b * c - a * d),
-                2.0 * (b * d + a * c),
-            ],
-            [
-                2.0 * (b * c + a * d),
-                a * a + c * c - b * b - d * d,
-                2.0 * (c * d - a * b),
-            ],
-            [
-                2.0 * (b * d - a * c),
-                2.0 * (c * d + a * b),
-                a * a + d * d - c * c - b * b,
-            ],
-        ];
-        let qfac = if h.pixdim[0] < 0.0 { -1.0 } else { 1.0 };
-        let s = [
-            f64::from(h.pixdim[1]),
-            f64::from(h.pixdim[2]),
-            qfac * f64::from(h.pixdim[3]),
-        ];
-        let o = [h.quatern_x, h.quatern_y, h.quatern_z].map(f64::from);
-        std::array::from_fn(|i| [r[i][0] * s[0], r[i][1] * s[1], r[i][2] * s[2], o[i]])
+        qform(h)
     } else {
         let s = |k: usize| {
             let v = f64::from(h.pixdim[k]).abs();
@@ -434,14 +608,7 @@ fn affine(h: &NiftiHeader) -> std::result::Result<[[f64; 4]; 3], ErrorKind> {
             [0.0, s(2), 0.0, 0.0],
             [0.0, 0.0, s(3), 0.0],
         ]
-    };
-    let finite = a.iter().flatten().all(|v| v.is_finite());
-    if !finite || det3(&a) == 0.0 {
-        return Err(ErrorKind::Nifti(format!(
-            "voxel-to-world transform is singular or not finite: {a:?}"
-        )));
-    }
-    Ok(a)
+    })
 }
 
 fn check_scaling(h: &NiftiHeader) -> std::result::Result<(), ErrorKind> {

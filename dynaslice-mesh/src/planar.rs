@@ -71,6 +71,38 @@ impl<F: PlaneField> PlaneField for Union<F> {
     }
 }
 
+/// Whole structures made of several channels of a field (the pointwise minimum over each
+/// group): with the Eq. 11 partition's fields and a model's nested classes
+/// (`dynaslice_data::nesting::whole_structures`), an outer structure's wall and what it holds
+/// as one region, as the user drew it. The partition's regions tile space, so the union has
+/// no seam where its parts meet.
+pub struct Whole<F> {
+    /// The field.
+    pub field: F,
+    /// Per output channel, the field's channels it is the union of.
+    pub groups: Vec<Vec<usize>>,
+}
+
+impl<F: PlaneField> PlaneField for Whole<F> {
+    fn channels(&self) -> usize {
+        self.groups.len()
+    }
+
+    fn values(&self, points: &[[f32; 3]]) -> Vec<f32> {
+        let k = self.field.channels();
+        let raw = self.field.values(points);
+        let mut out = Vec::with_capacity(points.len() * self.groups.len());
+        for row in raw.chunks_exact(k) {
+            out.extend(
+                self.groups
+                    .iter()
+                    .map(|g| g.iter().map(|&c| row[c]).fold(f32::INFINITY, f32::min)),
+            );
+        }
+        out
+    }
+}
+
 /// Halvings of a vertex's grid edge when placing it on F = 0.
 pub const BISECTIONS: u32 = 24;
 

@@ -12,6 +12,8 @@
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
 use dynaslice_mesh::{self as mesh, Surfaces};
+use dynaslice_model::RunRecord;
+use dynaslice_sequence::nesting::whole_structures;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -38,8 +40,58 @@ pub struct ClassShape {
 }
 
 /// The solid of every class of `model` at world time `t` (model order), from the Eq. 11
-/// partition meshes with `resolution` cells along the longest axis of its domain.
+/// partition meshes with `resolution` cells along the longest axis of its domain. A class the
+/// model records as holding others (`nesting` in its metadata, `dynaslice_data::nesting`) is
+/// its whole structure: its own region and those nested in it (an epicardium's wall and
+/// cavity), as the user drew it.
 pub fn class_shapes(model: &Model, t: f64, resolution: u32) -> Result<Vec<ClassShape>> {
+    let pairs = RunRecord::parse_lossy(model.metadata())
+        .0
+        .nested(model)
+        .map_err(|e| anyhow::anyhow!("the model's metadata: {e}"))?;
+    let own = partition_shapes(model, t, resolution)?;
+    Ok(whole_structures(&pairs, own.len())
+        .iter()
+        .map(|members| ClassShape::union(members.iter().map(|&k| &own[k])))
+        .collect())
+}
+
+impl ClassShape {
+    /// The solid made of disjoint solids `parts`: volumes add, the centroid is their
+    /// volume-weighted mean, the bounds their union.
+    pub fn union<'a>(parts: impl Iterator<Item = &'a ClassShape>) -> ClassShape {
+        let mut volume = 0.0;
+        let mut moment = [0.0; 3];
+        let mut bounds: Option<([f64; 3], [f64; 3])> = None;
+        let mut present = false;
+        for p in parts {
+            volume += p.volume;
+            if let Some(c) = p.centroid {
+                present = true;
+                for a in 0..3 {
+                    moment[a] += p.volume * c[a];
+                }
+            }
+            if let Some((lo, hi)) = p.bounds {
+                bounds = Some(match bounds {
+                    None => (lo, hi),
+                    Some((l, h)) => (
+                        std::array::from_fn(|a| l[a].min(lo[a])),
+                        std::array::from_fn(|a| h[a].max(hi[a])),
+                    ),
+                });
+            }
+        }
+        ClassShape {
+            volume,
+            centroid: (present && volume > 0.0).then(|| moment.map(|m| m / volume)),
+            bounds,
+        }
+    }
+}
+
+/// Each class's own region of the Eq. 11 partition as a solid.
+fn partition_shapes(model: &Model, t: f64, resolution: u32) -> Result<Vec<ClassShape>> {
     let classes: Vec<usize> = (0..model.num_classes()).collect();
     let options = mesh::Options {
         resolution,
@@ -176,5 +228,53 @@ mod tests {
         let csv = curve.to_csv();
         assert!(csv.starts_with("time,\"a\",\"b\"\n0,"), "{csv}");
         assert_eq!(csv.lines().count(), 4);
+    }
+
+    /// A model recording `nesting = 2:1` (class b drawn inside class a, here poking out of
+    /// it, as the partial nesting the reader accepts): class a's shape is
+    /// its own partition region and b's together (volumes add, the centroid is their
+    /// volume-weighted mean, the box their union), b's is its own.
+    #[test]
+    fn a_nested_class_s_outer_is_measured_whole() {
+        let s = [
+            Sphere::new([-0.2, 0.0, 0.0], 0.45, 0.1),
+            Sphere::new([0.1, 0.05, 0.0], 0.2, 0.0),
+        ];
+        let classes = [("a", 1), ("b", 2)];
+        let plain = spheres::model(&s, &classes);
+        let mut w = spheres::writer_in(spheres::SPHERES_DOMAIN, &s, &classes);
+        w.metadata = "nesting = 2:1\n".into();
+        let nested = w.to_bytes();
+        // At t = 0 (a grows and swallows b later).
+        let t = 0.0;
+        let own = class_shapes(&Model::from_bytes(&plain).unwrap(), t, 96).unwrap();
+        let whole = class_shapes(&Model::from_bytes(&nested).unwrap(), t, 96).unwrap();
+        assert_eq!(whole[1], own[1]);
+        let volume = own[0].volume + own[1].volume;
+        assert!((whole[0].volume - volume).abs() < 1e-12 * volume);
+        let (c0, c1) = (own[0].centroid.unwrap(), own[1].centroid.unwrap());
+        let c = whole[0].centroid.unwrap();
+        for a in 0..3 {
+            let mean = (own[0].volume * c0[a] + own[1].volume * c1[a]) / volume;
+            assert!((c[a] - mean).abs() < 1e-9, "{t}: axis {a}");
+        }
+        // The whole is the union of the two balls: a's and b's minus their lens.
+        let [ra, rb] = [s[0].world_radius(t), s[1].world_radius(t)];
+        let (ca, cb) = (s[0].world_centre(), s[1].world_centre());
+        let d = (0..3).map(|a| (ca[a] - cb[a]).powi(2)).sum::<f64>().sqrt();
+        let lens = std::f64::consts::PI
+            * (ra + rb - d).powi(2)
+            * (d * d + 2.0 * d * (ra + rb) - 3.0 * (ra - rb).powi(2))
+            / (12.0 * d);
+        let union = s[0].world_volume(t) + s[1].world_volume(t) - lens;
+        assert!(
+            (whole[0].volume - union).abs() < 2e-3 * union,
+            "{t}: {} vs {union}",
+            whole[0].volume
+        );
+        let mut w = spheres::writer_in(spheres::SPHERES_DOMAIN, &s, &classes);
+        w.metadata = "nesting = 2:9\n".into();
+        let e = class_shapes(&Model::from_bytes(&w.to_bytes()).unwrap(), 0.0, 32).unwrap_err();
+        assert!(e.to_string().contains("no class of label 9"), "{e}");
     }
 }

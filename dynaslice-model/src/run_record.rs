@@ -18,6 +18,7 @@
 //! emitted after the known keys.
 
 use dynaslice_core::Model;
+use dynaslice_sequence::nesting::{from_labels, Nested};
 use dynaslice_sequence::palette::{parse_hex, to_hex};
 use dynaslice_sequence::{ClassInfo, Space, Units};
 use std::fmt::Write as _;
@@ -56,6 +57,9 @@ impl SampleRecord {
 /// A recorded class colour: (source label, `#rrggbb`).
 pub type ClassColor = (i32, [u8; 3]);
 
+/// A recorded nesting: (inner, outer) by source label.
+pub type NestedLabels = (i32, i32);
+
 /// The typed metadata of a model file: every key the trainer writes, each `None` where a model
 /// does not record it (see the module's rule for older models). Fields are in the order
 /// [`RunRecord::emit`] writes them.
@@ -71,6 +75,9 @@ pub struct RunRecord {
     pub space: Option<Space>,
     /// `units`: the input's length unit.
     pub units: Option<Units>,
+    /// `nesting`: classes drawn nested and trained disjoint, `(inner, outer)` by source label
+    /// (`3:7 5:3`), each class with its direct outer (`dynaslice_sequence::nesting`).
+    pub nesting: Option<Vec<NestedLabels>>,
     /// `widths`: the sine layers' widths.
     pub widths: Option<Vec<u32>>,
     /// `steps`: steps of the full schedule.
@@ -259,6 +266,23 @@ const EXAMPLE: SampleRecord = SampleRecord {
     space_time: 1024,
 };
 
+impl Field for Vec<NestedLabels> {
+    fn parse(text: &str) -> Result<Self, String> {
+        text.split_whitespace()
+            .map(|entry| {
+                entry
+                    .split_once(':')
+                    .and_then(|(inner, outer)| Some((inner.parse().ok()?, outer.parse().ok()?)))
+                    .ok_or_else(|| format!("entry {entry:?} is not INNER:OUTER (two labels)"))
+            })
+            .collect()
+    }
+    fn emit(&self, out: &mut String) {
+        let entries: Vec<String> = self.iter().map(|(i, o)| format!("{i}:{o}")).collect();
+        out.push_str(&entries.join(" "));
+    }
+}
+
 impl Field for Vec<ClassColor> {
     fn parse(text: &str) -> Result<Self, String> {
         let mut colors: Vec<ClassColor> = Vec::new();
@@ -359,6 +383,7 @@ fields! {
     frames = "frames",
     space = "space",
     units = "units",
+    nesting = "nesting",
     widths = "widths",
     steps = "steps",
     seed = "seed",
@@ -437,6 +462,13 @@ impl RunRecord {
         self.units.unwrap_or(Units::Plain)
     }
 
+    /// The nesting of `model`'s classes ([`RunRecord::nesting`] as class indices, checked);
+    /// empty where none is recorded.
+    pub fn nested(&self, model: &Model) -> Result<Vec<Nested>, String> {
+        let labels: Vec<i32> = model.classes().map(|c| c.label).collect();
+        from_labels(self.nesting.as_deref().unwrap_or_default(), &labels)
+    }
+
     /// The recorded colours of `classes` that have one, in class order (`None`: no class has
     /// one, and the line is not written).
     pub fn colors_of(classes: &[ClassInfo]) -> Option<Vec<ClassColor>> {
@@ -484,7 +516,7 @@ mod tests {
 
     /// Metadata as the trainer writes it, every key present.
     const FULL: &str = "trainer = dynaslice 0.1.0\ninput = a.nii.gz + b.nii.gz\nframes = 0:\n\
-        space = RAS\nunits = mm\nwidths = [256, 256, 256]\nsteps = 3000\nseed = 7\nthreads = 2\n\
+        space = RAS\nunits = mm\nnesting = 2:1 -3:2\nwidths = [256, 256, 256]\nsteps = 3000\nseed = 7\nthreads = 2\n\
         omega_0 = 20\noffset = 0.2\nomega_t_max = inf\nlr = 0.0001 -> 0.000001\n\
         warmup_steps = 0\nlambda_orientation = 0.1\nlambda_plane = 1\nlambda_regulariser = 0.05\n\
         alpha = 100\ntemporal_factor = 0.5\nsteps_done = 3000\nplanned_steps = 2871\n\
@@ -507,6 +539,7 @@ mod tests {
             record.class_colors.as_deref().unwrap()[1],
             (-7, [0, 0, 255])
         );
+        assert_eq!(record.nesting.as_deref(), Some(&[(2, 1), (-3, 2)][..]));
         assert_eq!(RunRecord::parse(&record.emit()).unwrap(), record);
     }
 
@@ -538,6 +571,8 @@ mod tests {
             ("class_colors = 1=#ff0000", "class_colors"),
             ("class_colors = x:#ff0000", "class_colors"),
             ("class_colors = 1:#ff0000 1:#00ff00", "class_colors"),
+            ("nesting = 2-1", "nesting"),
+            ("nesting = 2:x", "nesting"),
             ("seed = 1\nseed = 2", "seed"),
         ] {
             let e = RunRecord::parse(bad).unwrap_err();

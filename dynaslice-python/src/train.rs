@@ -64,7 +64,8 @@ where
 #[pyo3(signature = (
     inputs, output, *, steps = None, minutes = None, seed = None, threads = None, progress = None,
     frames = None, label_names = None, planes = None, drawn_axes = None, roi_extent = None,
-    rotated_planes = None, axial_step = None, labels = None, pixel = None, resume = false,
+    rotated_planes = None, axial_step = None, labels = None, pixel = None, nesting = None,
+    header_spacing = None, resume = false,
     force = false, no_temporal_control = false, no_orientation = false, widths = None,
     omega0 = None, init_offset = None, temporal_factor = None, lr = None, warmup_steps = None,
     lambda_orientation = None, lambda_plane = None, lambda_regulariser = None, alpha = None,
@@ -90,6 +91,8 @@ pub fn train(
     axial_step: Option<usize>,
     labels: Option<Vec<i32>>,
     pixel: Option<f64>,
+    nesting: Option<String>,
+    header_spacing: Option<String>,
     resume: bool,
     force: bool,
     no_temporal_control: bool,
@@ -165,6 +168,8 @@ pub fn train(
         axial_step,
         labels,
         pixel,
+        nesting: parsed("nesting", nesting.as_deref())?,
+        header_spacing: parsed("header_spacing", header_spacing.as_deref())?,
     };
     files.check_state(&spec).map_err(fit_error)?;
     let (seq, space) = py

@@ -5,6 +5,7 @@
 //! | --- | --- |
 //! | the sequence, its frames, planes, annotations and classes, and their validation | [`sequence`] |
 //! | what is wrong with an input, and exactly where | [`DataError`] |
+//! | classes drawn one inside another, and how the model records it | [`nesting`] |
 //! | the native JSON form (`docs/data-format.md`) | [`native::read`], [`native::write`] |
 //! | opening a user's file: regular files only, reads capped by the format | [`input_file`] |
 //! | the patient frame and units coordinates come in | [`Space`], [`Units`] |
@@ -19,10 +20,12 @@
 pub mod error;
 pub mod input_file;
 pub mod native;
+pub mod nesting;
 pub mod palette;
 pub mod sequence;
 pub mod space;
 
 pub use error::{DataError, ErrorKind, Location, Result};
+pub use nesting::Nested;
 pub use sequence::{Aabb, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
 pub use space::{Space, Units};

@@ -16,6 +16,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{DataError, ErrorKind, Result};
+use crate::nesting::Nested;
 use dynaslice_geometry::polygon::{find_crossing, orient_by_nesting, signed_area};
 use dynaslice_geometry::{Point2, Polygon};
 
@@ -158,6 +159,7 @@ pub struct Aabb {
 pub struct Sequence {
     classes: Vec<ClassInfo>,
     frames: Vec<Frame>,
+    nesting: Vec<Nested>,
 }
 
 impl Sequence {
@@ -213,7 +215,28 @@ impl Sequence {
                 .for_class(&class.name, class.label));
             }
         }
-        Ok(Sequence { classes, frames })
+        Ok(Sequence {
+            classes,
+            frames,
+            nesting: Vec::new(),
+        })
+    }
+
+    /// The sequence recording that its classes were drawn nested as `pairs` say, its polygons
+    /// already disjoint (the outer's with the inner's as holes): the model records the pairs
+    /// and its outputs recompose the outer ([`crate::nesting`]). Refuses invalid pairs
+    /// ([`crate::nesting::validate`]).
+    pub fn with_nesting(mut self, pairs: Vec<Nested>) -> Result<Self> {
+        crate::nesting::validate(&pairs, self.classes.len())
+            .map_err(|e| DataError::new(ErrorKind::BadClass(e)))?;
+        self.nesting = pairs;
+        Ok(self)
+    }
+
+    /// The classes drawn nested whose polygons were made disjoint ([`Sequence::with_nesting`]);
+    /// empty for most inputs.
+    pub fn nesting(&self) -> &[Nested] {
+        &self.nesting
     }
 
     /// The classes; class index k is the network's output channel k.

@@ -19,6 +19,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::ModelBytes;
 use dynaslice_model::RunRecord;
 use dynaslice_output::write_atomically;
+use dynaslice_sequence::nesting::to_labels;
 use dynaslice_sequence::{Sequence, Space, Units};
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -280,7 +281,16 @@ pub fn fit(
         counts,
         temporal_factor: spec.temporal_factor(),
         class_weights: spec.class_weights.as_deref(),
-        input: input.record(),
+        // Classes drawn nested and trained disjoint: outputs recompose the outer from it.
+        input: RunRecord {
+            nesting: (!seq.nesting().is_empty()).then(|| {
+                to_labels(
+                    &classes.iter().map(|c| c.label).collect::<Vec<_>>(),
+                    seq.nesting(),
+                )
+            }),
+            ..input.record()
+        },
     }
     .to_bytes()
     .map_err(|e| anyhow!("cannot write the model: {e}"))?;

@@ -17,16 +17,16 @@ pub struct VoxelGrid {
 
 impl VoxelGrid {
     /// The grid of a reference volume: same dimensions, affine and frames, frame f at time
-    /// f · frame interval, the times the NIfTI reader gives a volume's frames when it trains
-    /// on it ([`dynaslice_data::reslice`]), so a model trained on `reference` is queried at its
-    /// own frames. From a file's header alone ([`dynaslice_data::nifti::read_geometry`]) or a
+    /// time origin + f · frame interval (NIfTI's `toffset` and `pixdim[4]`), the times the
+    /// readers give a volume's frames when it trains on it ([`dynaslice_data::input`]), so a
+    /// model trained on `reference` is queried at its own frames. From a file's header alone ([`dynaslice_data::nifti::read_geometry`]) or a
     /// volume in memory ([`dynaslice_data::label_volume::LabelVolume::geometry`]).
     pub fn like(reference: &Geometry) -> VoxelGrid {
         VoxelGrid {
             dims: reference.dims,
             affine: reference.affine,
             times: (0..reference.frames)
-                .map(|f| f as f64 * reference.frame_interval)
+                .map(|f| reference.time_origin + f as f64 * reference.frame_interval)
                 .collect(),
         }
     }
