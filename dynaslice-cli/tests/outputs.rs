@@ -324,8 +324,9 @@ fn a_run_on_an_output_another_run_is_writing_refuses_and_leaves_nothing() {
     for case in &CASES {
         let dir = tempfile::tempdir().unwrap();
         let argv = args(case, &model, dir.path());
-        // The main output: the value after -o.
-        let output = PathBuf::from(&argv[argv.iter().position(|a| a == "-o").unwrap() + 1]);
+        // The main output: the value after -o (--itv for measure's folder).
+        let option = argv.iter().position(|a| a == "-o" || a == "--itv").unwrap();
+        let output = PathBuf::from(&argv[option + 1]);
         // Another run's claim, held by this process as the other run would hold it.
         let claim = dynaslice_output::claim(&output).unwrap();
         let before = snapshot(dir.path());
@@ -490,7 +491,9 @@ fn multi_file_outputs_are_all_or_nothing_when_the_disk_fills() {
             let base = if forced { needed } else { 0 };
             // Sizes from one page to past the whole output (lock files and a series folder's
             // entries take pages too), at most 6 of them to keep the test short.
-            for pages in (1..=needed + 4).step_by((needed as usize + 4).div_ceil(6)) {
+            let top = needed + 8;
+            let sizes = (1..top).step_by((top as usize).div_ceil(6)).chain([top]);
+            for pages in sizes {
                 let dir = tempfile::tempdir().unwrap();
                 let _disk = small_disk(dir.path(), base + pages).expect("mounted above");
                 let mut argv = args(case, &model, dir.path());
