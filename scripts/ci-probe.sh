@@ -536,9 +536,10 @@ if mount -t tmpfs -o size=4k tmpfs disk 2>/dev/null; then
         run "${template[@]//@W@/$PWD/w}"
         [ "$rc" = 0 ] || { fail fulldisk lost "$c: failed on an ordinary disk: $(tail -n 1 "$ERR")"; continue; }
         pages=$(find w -type f -printf '%s\n' | awk '{p += int(($1 + 4095) / 4096)} END {print p}')
-        # Every size from one page to the whole output, at most 12 sizes.
-        stride=$(( (pages + 11) / 12 )); [ "$stride" -ge 1 ] || stride=1
-        for ((n = 1; n <= pages + 2; n += stride)); do
+        # Sizes from one page to past the whole output (lock files take pages too), at most 12.
+        top=$((pages + 8))
+        stride=$(( (top + 11) / 12 )); [ "$stride" -ge 1 ] || stride=1
+        for ((n = 1; n <= top; n += stride)); do
             mount -t tmpfs -o size=$((4 * n))k tmpfs disk || break
             run "${template[@]//@W@/$PWD/disk}"
             check fulldisk ok "$c on $n pages"
