@@ -58,7 +58,8 @@
 
 /**
  * Any other invalid argument: a misaligned pointer, overlapping input and output buffers, or a
- * count whose buffer size overflows `size_t`.
+ * count whose buffer would exceed `PTRDIFF_MAX` bytes (`SIZE_MAX`, for one), on every call
+ * that takes a count or length.
  */
 #define DS_E_INVALID_ARGUMENT -9
 

@@ -11,13 +11,27 @@
 #   overwrite every output, sidecar, series file and link of every writing command already
 #             there: refused without --force, checked by sha256 that nothing changed;
 #   pairs     two runs on one -o at once (different models, so a mix shows): what is left
-#             comes from one run, with no temporaries or lock files left over.
+#             comes from one run, with no temporaries or lock files left over;
+#   absurd    (issue 37) tiny and huge positive values (1e-30, 4294967297, 1e30) of spacings,
+#             steps and tolerances of labels, measure, rtstruct, report, eval and bench:
+#             refused before any work, nothing written;
+#   corrupt   truncated and bit-flipped models, NIfTI, NRRD, JSON and RT Structure Sets as
+#             inputs: refused, no panic;
+#   demo      a user's folder with a model.dsm and labels.nii.gz: the demo refuses, nothing
+#             changes;
+#   fulldisk  every multi-file writer (mesh per class and series, labels NIfTI and .seg.nrrd,
+#             measure --itv, rtstruct) on a small tmpfs of several sizes: success whole or
+#             failure with the folder as it was (skipped with a note where mount is refused);
+#   signals   SIGTERM mid-train then --resume: byte-identical to an uninterrupted run; SIGKILL
+#             before the first checkpoint then a plain rerun; SIGTERM to labels: no lock file or
+#             temporary left.
 #
 # Counts: panics (exit 101 or "panicked at"), crashes (killed by a signal other than the time
 # limit's), hangs (killed by the time limit), nonsense (a bad value accepted, a non-finite
 # number printed, success on a full stdout), replaced (files changed without --force), mixed
 # (outputs of two runs together, leftovers), lost (an output missing after a run that had to
-# write it). Exit status 1 unless every count is 0; each failure is printed on one line.
+# write it), partial (a failed multi-file run that left new files or changed old ones), resume
+# (a resumed run not byte-identical, or a killed run blocking a fresh start). Exit status 1 unless every count is 0; each failure is printed on one line.
 #
 # Environment: DYNASLICE_BIN (the binary; default: built here with the test profile),
 # DYNASLICE_PROBE_SECONDS (limit per run, default 20), DYNASLICE_PROBE_INPUT_SECONDS (limit
@@ -38,7 +52,7 @@ trap 'rm -rf "$work"' EXIT
 cd "$work" || exit 1
 started=$(date +%s)
 
-panics=0 crashes=0 hangs=0 nonsense=0 replaced=0 mixed=0 lost=0 runs=0
+panics=0 crashes=0 hangs=0 nonsense=0 replaced=0 mixed=0 lost=0 partial=0 resume=0 runs=0
 fail() { # FAMILY COUNTER WHAT
     echo "FAIL [$1] $3"
     eval "$2=\$(( $2 + 1 ))"
@@ -276,6 +290,8 @@ overwrite_cases=(
     "eval split $truth --holdout-planes 3::4 -o @W@/split.json"
     "man -o @W@/man1"
     "synth --timesteps 2 --plane-resolution 16 --volume-resolution 8 -o @W@/s"
+    "report $M --times 0:$t1:2 --resolution 8 -o @W@/r.html"
+    "measure $M --times 0:$t1:2 --resolution 8 --itv @W@/itv -o @W@/m.csv"
 )
 echo "a user's reference" >reference.stl
 for c in "${overwrite_cases[@]}"; do
@@ -374,6 +390,213 @@ for round in 1 2 3 4; do
     [ -z "$leftovers" ] || fail pairs mixed "train pair $round: left $leftovers"
 done
 
+# ---------------------------------------------------------------- absurd values (issue 37)
+step "tiny and huge values"
+tiny=(1e-30 1e-300 4294967297 1e30)
+probe_values tiny labels "$M" --spacing @V@ -o o/l.nii.gz
+probe_values tiny measure "$M" --times 0:$t1:2 --resolution 8 --itv o/itv --itv-spacing @V@ -o o/m.csv
+probe_values tiny rtstruct "$M" --like nowhere.dcm --times 0:$t1:2 --step @V@ -o o/rs
+for v in 1e30 4294967297 -1 nan; do
+    rm -rf o; mkdir o
+    run rtstruct "$M" --like nowhere.dcm --times 0:$t1:2 --tolerance "$v" -o o/rs
+    check hostile fail "rtstruct --tolerance $v"
+done
+probe_values numbers report "$M" --resolution @V@ -o o/r.html
+probe_values series report "$M" --times @V@ --resolution 8 -o o/r.html
+probe_values series measure "$M" --times @V@ --resolution 8
+probe_values numbers measure "$M" --resolution @V@
+probe_values numbers eval reference "$M" "$truth" --time @V@
+probe_values numbers eval heldout "$M" "$slices" --pixels @V@
+for opt in --repeats --classes --threads; do
+    probe_values numbers bench --widths 16,16 "$opt" @V@
+done
+# What each refusal above left: nothing.
+[ -z "$(ls -A o 2>/dev/null)" ] || fail hostile nonsense "a refused run left $(ls -A o | tr '\n' ' ')"
+
+# ---------------------------------------------------------------- corrupted inputs
+step "corrupted inputs"
+mkdir -p bad
+"$bin" labels "$M" --spacing 0.2 --times 0:$t1:2 -o bad/ok.nii.gz >/dev/null 2>&1
+"$bin" labels "$M" --spacing 0.2 --times 0:$t1:1 -o bad/ok.seg.nrrd >/dev/null 2>&1
+cp "$M" bad/ok.dsm
+cp "$slices" bad/ok.json
+for f in bad/ok.*; do
+    [ -f "$f" ] || continue
+    ext=${f#bad/ok}
+    size=$(stat -c %s "$f")
+    head -c $((size / 2)) "$f" >"bad/half$ext"
+    cp "$f" "bad/flip$ext"
+    # Bytes flipped in the middle and near the start (headers).
+    for at in $((size / 2)) 40 100; do
+        [ "$at" -lt "$size" ] && printf '\xff\x00\xa5' | dd of="bad/flip$ext" bs=1 seek="$at" conv=notrunc status=none
+    done
+done
+for f in bad/half.* bad/flip.*; do
+    rm -rf o; mkdir o
+    case $f in
+        *.dsm) run info "$f"; check corrupt ok "info $f"
+               run mesh "$f" --time "$tm" --resolution 8 -o o/t.ply; check corrupt ok "mesh $f" ;;
+        *) run train "$f" -o o/m.dsm --steps 1 --widths 8; check corrupt ok "train $f"
+           run labels "$M" --like "$f" -o o/l.nii.gz; check corrupt ok "labels --like $f" ;;
+    esac
+done
+
+# ---------------------------------------------------------------- the demo and a user's folder
+step "demo into a user's folder"
+rm -rf mine; mkdir mine
+echo "the user's model" >mine/model.dsm
+echo "the user's labels" >mine/labels.nii.gz
+before=$(digest mine)
+run demo -o mine --steps 1 --resolution 16 --widths 16,16
+check demo fail "demo -o a folder holding a user's model.dsm and labels.nii.gz"
+[ "$before" = "$(digest mine)" ] || fail demo replaced "demo -o a user's folder changed it"
+
+# ---------------------------------------------------------------- RT Structure Sets
+step "RT Structure Sets"
+# A CT series and a structure set in the probe model's frame (plain units read as mm: the
+# domain is about 2.3 wide), made with pydicom where it is installed.
+rt_ok=0
+if python3 - rt <<'PY' >/dev/null 2>&1
+import os, sys
+import numpy as np
+from pydicom.dataset import Dataset, FileDataset, FileMetaDataset
+from pydicom.sequence import Sequence
+from pydicom.uid import ExplicitVRLittleEndian, generate_uid
+out = sys.argv[1]
+for d in ("ct", "ct_same"):
+    os.makedirs(os.path.join(out, d), exist_ok=True)
+study, frame, series = generate_uid(), generate_uid(), generate_uid()
+def base(path, cls):
+    meta = FileMetaDataset()
+    meta.MediaStorageSOPClassUID, meta.MediaStorageSOPInstanceUID = cls, generate_uid()
+    meta.TransferSyntaxUID = ExplicitVRLittleEndian
+    ds = FileDataset(path, {}, file_meta=meta, preamble=b"\0" * 128)
+    ds.SOPClassUID, ds.SOPInstanceUID, ds.StudyInstanceUID = cls, meta.MediaStorageSOPInstanceUID, study
+    return ds
+for d, same in (("ct", False), ("ct_same", True)):
+    for k, z in enumerate(np.arange(-1.0, 1.01, 0.1)):
+        path = os.path.join(out, d, "CT_%02d.dcm" % k)
+        ds = base(path, "1.2.840.10008.5.1.4.1.1.2")
+        ds.Modality, ds.SeriesInstanceUID, ds.FrameOfReferenceUID = "CT", series, frame
+        ds.ImagePositionPatient = [-1.1, -1.1, 0.0 if same else float(z)]
+        ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
+        ds.PixelSpacing, ds.Rows, ds.Columns = [0.05, 0.05], 45, 45
+        ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, 1
+        ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
+        ds.PixelData = np.zeros((45, 45), np.int16).tobytes()
+        ds.save_as(path, enforce_file_format=True)
+path = os.path.join(out, "rs.dcm")
+ds = base(path, "1.2.840.10008.5.1.4.1.1.481.3")
+ds.Modality, ds.StructureSetLabel = "RTSTRUCT", "probe"
+ref = Dataset(); ref.FrameOfReferenceUID = frame
+ds.ReferencedFrameOfReferenceSequence = Sequence([ref])
+roi = Dataset(); roi.ROINumber, roi.ROIName, roi.ReferencedFrameOfReferenceUID = 1, "chamber a", frame
+roi.ROIGenerationAlgorithm = "MANUAL"
+ds.StructureSetROISequence = Sequence([roi])
+c = Dataset(); c.ReferencedROINumber, c.ROIDisplayColor = 1, [255, 0, 0]
+it = Dataset(); it.ContourGeometricType, it.NumberOfContourPoints = "CLOSED_PLANAR", 4
+it.ContourData = [-0.5, -0.5, 0.0, 0.5, -0.5, 0.0, 0.5, 0.5, 0.0, -0.5, 0.5, 0.0]
+c.ContourSequence = Sequence([it])
+ds.ROIContourSequence = Sequence([c])
+ds.save_as(path, enforce_file_format=True)
+PY
+then
+    rt_ok=1
+    rs=(rtstruct "$M" --like rt/rs.dcm --times 0:$t1:2 --step 0.05)
+    rm -rf o; mkdir o
+    run "${rs[@]}" --ct rt/ct -o o/rs
+    check rtstruct ok "rtstruct --ct"
+    [ "$rc" = 0 ] && [ -f o/rs/rtstruct.seq ] || fail rtstruct lost "rtstruct --ct: no rtstruct.seq (exit $rc): $(tail -n 1 "$ERR")"
+    rm -rf o; mkdir o
+    run "${rs[@]}" --ct rt/ct_same -o o/rs
+    check rtstruct fail "rtstruct --ct with every slice at one position"
+    grep -q "CT_" "$ERR" || fail rtstruct nonsense "the repeated slice positions are not named: $(tail -n 1 "$ERR")"
+    [ -z "$(ls -A o)" ] || fail rtstruct partial "a refused rtstruct left $(ls -A o | tr '\n' ' ')"
+else
+    echo "NOTE: pydicom missing: the RT Structure Set family is skipped"
+fi
+
+# ---------------------------------------------------------------- full disk (issue 37)
+step "multi-file outputs on a full disk"
+multi=(
+    "mesh $M --time $tm --resolution 8 -o @W@/t.stl"
+    "mesh $M --times 0:$t1:3 --resolution 8 -o @W@/series"
+    "labels $M --spacing 0.1 --times 0:$t1:3 -o @W@/l.nii.gz"
+    "labels $M --spacing 0.1 --times 0:$t1:3 -o @W@/l.seg.nrrd"
+    "measure $M --times 0:$t1:2 --resolution 8 --itv @W@/itv"
+)
+[ "$rt_ok" = 1 ] && multi+=("rtstruct $M --like $PWD/rt/rs.dcm --ct $PWD/rt/ct --times 0:$t1:3 --step 0.05 -o @W@/rs")
+mkdir -p disk
+if mount -t tmpfs -o size=4k tmpfs disk 2>/dev/null; then
+    umount disk
+    full=0 whole=0
+    for c in "${multi[@]}"; do
+        read -r -a template <<<"$c"
+        rm -rf w; mkdir w
+        run "${template[@]//@W@/$PWD/w}"
+        [ "$rc" = 0 ] || { fail fulldisk lost "$c: failed on an ordinary disk: $(tail -n 1 "$ERR")"; continue; }
+        pages=$(find w -type f -printf '%s\n' | awk '{p += int(($1 + 4095) / 4096)} END {print p}')
+        # Sizes from one page to past the whole output (lock files take pages too), at most 12.
+        top=$((pages + 8))
+        stride=$(( (top + 11) / 12 )); [ "$stride" -ge 1 ] || stride=1
+        for ((n = 1; n <= top; n += stride)); do
+            mount -t tmpfs -o size=$((4 * n))k tmpfs disk || break
+            run "${template[@]//@W@/$PWD/disk}"
+            check fulldisk ok "$c on $n pages"
+            if [ "$rc" = 0 ]; then whole=$((whole + 1)); else full=$((full + 1)); fi
+            if [ "$rc" != 0 ]; then
+                left=$(ls -A disk | tr '\n' ' ')
+                [ -z "$left" ] || fail fulldisk partial "$c on a disk of $n pages failed and left $left"
+                grep -q "No space left" "$ERR" || fail fulldisk nonsense "$c on $n pages: $(tail -n 1 "$ERR")"
+            fi
+            umount disk
+        done
+    done
+    echo "full disk: $full runs failed for lack of space, $whole had room"
+    [ "$full" -gt 0 ] || fail fulldisk nonsense "no run ran out of space: the disk sizes did not span the outputs"
+else
+    echo "NOTE: cannot mount a tmpfs (not root?): the full-disk family is skipped"
+fi
+
+# ---------------------------------------------------------------- signals mid-run (issue 37)
+step "SIGTERM, SIGHUP and SIGKILL mid-run"
+sig_args=(--steps 1500 --widths 16,16 --contour-samples 64 --plane-samples 64 --space-samples 64 --threads 1 --checkpoint-minutes 0)
+rm -rf sig; mkdir sig
+"$bin" train "$slices" -o sig/ref.dsm "${sig_args[@]}" >/dev/null 2>&1
+for s in TERM HUP; do
+    rm -f sig/r.dsm*
+    "$bin" train "$slices" -o sig/r.dsm "${sig_args[@]}" >/dev/null 2>sig/err &
+    pid=$!
+    # Stopped once training has begun (its journal has rows), so a checkpoint is due.
+    for _ in $(seq 100); do [ "$(wc -l 2>/dev/null <sig/r.dsm.ckpt.loss.csv || echo 0)" -gt 5 ] && break; sleep 0.1; done
+    kill -$s $pid; wait $pid; rc=$?
+    runs=$((runs + 2))
+    ERR=sig/err check signals ok "train, SIG$s mid-run"
+    if [ "$rc" = 0 ]; then
+        echo "NOTE: train finished before SIG$s"
+    else
+        leftovers=$(cd sig && ls -A | grep -E '^\.' | tr '\n' ' ')
+        [ -z "$leftovers" ] || fail signals mixed "train after SIG$s left $leftovers"
+        "$bin" train "$slices" -o sig/r.dsm "${sig_args[@]}" --resume >/dev/null 2>sig/err2
+        cmp -s sig/ref.dsm sig/r.dsm && cmp -s sig/ref.dsm.loss.csv sig/r.dsm.loss.csv ||
+            fail signals resume "SIG$s then --resume: not byte-identical to an uninterrupted run ($(tail -n 1 sig/err2))"
+    fi
+done
+rm -f sig/r.dsm*
+"$bin" train "$slices" -o sig/r.dsm --steps 100000 --widths 16,16 --threads 1 >/dev/null 2>&1 &
+pid=$!
+for _ in $(seq 100); do [ -s sig/r.dsm.ckpt.loss.csv ] && break; sleep 0.1; done
+kill -KILL $pid; wait $pid 2>/dev/null
+runs=$((runs + 2))
+timeout -k 2 "$limit" "$bin" train "$slices" -o sig/r.dsm --steps 2 --widths 16,16 --threads 1 >/dev/null 2>sig/err
+[ $? = 0 ] || fail signals resume "a plain rerun after SIGKILL before the first checkpoint: $(tail -n 1 sig/err)"
+rm -rf w; mkdir w
+"$bin" labels "$M" --spacing 0.01 --times 0:$t1:4 -o w/l.seg.nrrd >/dev/null 2>&1 &
+pid=$!
+sleep 1.5; kill -TERM $pid; wait $pid; rc=$?
+runs=$((runs + 1))
+[ "$rc" = 0 ] || [ -z "$(ls -A w)" ] || fail signals partial "labels after SIGTERM left $(ls -A w | tr '\n' ' ')"
+
 step "done"
-echo "probe: $runs runs in $(( $(date +%s) - started )) s: $panics panics, $crashes crashes, $hangs hangs, $nonsense accepted nonsense, $replaced files replaced without --force, $mixed mixed outputs, $lost lost outputs"
-[ $((panics + crashes + hangs + nonsense + replaced + mixed + lost)) = 0 ]
+echo "probe: $runs runs in $(( $(date +%s) - started )) s: $panics panics, $crashes crashes, $hangs hangs, $nonsense accepted nonsense, $replaced files replaced without --force, $mixed mixed outputs, $lost lost outputs, $partial partial multi-file outputs, $resume failed resumes"
+[ $((panics + crashes + hangs + nonsense + replaced + mixed + lost + partial + resume)) = 0 ]

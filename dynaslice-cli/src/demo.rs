@@ -7,18 +7,28 @@ use super::options::{
 };
 use super::widths::check_widths;
 use super::{parse_line, run_line};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use dynaslice_core::format::MAX_WIDTH;
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
+use dynaslice_output::prepare_owned_folder;
 use std::path::PathBuf;
 use std::time::Instant;
+
+/// The file marking a folder the demo made (dynaslice_output::folder).
+const DEMO_MARK: &str = ".dynaslice-demo";
 
 /// Arguments of `dynaslice demo`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Output directory (a second run replaces the first one's outputs there).
+    /// Output directory. The demo creates and marks it (a `.dynaslice-demo` file); a second
+    /// run into a folder it marked replaces the first one's outputs there. An existing folder
+    /// holding other files is refused unless --force.
     #[arg(short, long, default_value = "dynaslice-demo")]
     output: PathBuf,
+    /// Write into an existing folder the demo did not make, replacing any of its files named
+    /// like the demo's outputs (model.dsm, labels.nii.gz, data/, meshes/, …).
+    #[arg(long)]
+    force: bool,
     /// Training steps (the learning-rate schedule spans them).
     #[arg(long, default_value_t = 1000, value_parser = count(1, MAX_STEPS))]
     steps: u64,
@@ -47,9 +57,6 @@ pub fn run(a: Args) -> Result<()> {
     let start = Instant::now();
     check_widths(&a.widths)?;
     let widths: Vec<String> = a.widths.iter().map(u32::to_string).collect();
-    // The subcommands write into existing folders only; the demo's own folder it makes.
-    std::fs::create_dir_all(&a.output)
-        .with_context(|| format!("cannot create directory {}", a.output.display()))?;
     let out = |p: &str| a.output.join(p).to_string_lossy().into_owned();
     let slices = out("data/chambers/slices.json");
     let truth = out("data/chambers/truth.nii.gz");
@@ -61,7 +68,6 @@ pub fn run(a: Args) -> Result<()> {
             out("data"),
             "--shape".into(),
             "chambers".into(),
-            "--force".into(),
         ],
         [
             vec![
@@ -75,7 +81,7 @@ pub fn run(a: Args) -> Result<()> {
             a.minutes
                 .map(|m| vec!["--minutes".into(), m.to_string()])
                 .unwrap_or_default(),
-            vec!["--widths".into(), widths.join(","), "--force".into()],
+            vec!["--widths".into(), widths.join(",")],
         ]
         .concat(),
         vec![
@@ -97,7 +103,6 @@ pub fn run(a: Args) -> Result<()> {
             truth,
             "-o".into(),
             out("labels.nii.gz"),
-            "--force".into(),
         ],
         vec![
             "eval".into(),
@@ -147,10 +152,23 @@ pub fn run(a: Args) -> Result<()> {
         ],
     ];
     // Every line's options are checked before the first one runs: a bad value fails at once,
-    // not after synthesis and training.
+    // not after synthesis and training (and before the folder is made).
     for line in &lines {
         parse_line(line)?;
     }
+    // The subcommands write into existing folders only; the demo's own folder it makes and
+    // marks. Its outputs are replaced (--force to each subcommand) only in a folder an
+    // earlier demo made, or where the user forced it; never in a user's folder otherwise.
+    let folder = prepare_owned_folder(&a.output, DEMO_MARK, "dynaslice demo", a.force)?;
+    let force: Vec<String> = if folder.replaces() {
+        vec!["--force".into()]
+    } else {
+        Vec::new()
+    };
+    let lines: Vec<Vec<String>> = lines
+        .into_iter()
+        .map(|line| [line, force.clone()].concat())
+        .collect();
     errln!(
         "demo: {} commands; training runs {} steps of a {} network, {}",
         lines.len(),

@@ -24,6 +24,7 @@ mod query;
 mod report;
 mod rtstruct;
 pub mod samples;
+mod signals;
 mod synth;
 mod times;
 mod train;
@@ -87,6 +88,7 @@ enum Command {
 /// Parses the process arguments and runs the chosen subcommand.
 pub fn main() -> ExitCode {
     warnings::install();
+    signals::install();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) if e.use_stderr() => e.exit(),

@@ -6,8 +6,8 @@ use super::console::{errln, outln};
 use super::options::{count, positive_f64, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
 use super::progress::Progress;
 use super::times::times_option;
-use anyhow::{Context, Result};
-use dynaslice_data::color_table::{table_paths, write_tables};
+use anyhow::{bail, Context, Result};
+use dynaslice_data::color_table::{stage_tables, table_paths};
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
 use dynaslice_data::{ClassInfo, TimeSeries};
 use dynaslice_mesh::io::{self as mesh_io, class_tag, Format, MeshInfo, Space};
@@ -16,9 +16,9 @@ use dynaslice_metrics::measurement::{Described, Measurement};
 use dynaslice_metrics::motion::{round, Frame, Units};
 use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
-use dynaslice_output::{Kind, Plan};
+use dynaslice_output::{Kind, OutputSet, Plan};
 use dynaslice_volume::VoxelGrid;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Times measured by default over a moving model's time range.
 const DEFAULT_TIMES: usize = 21;
@@ -155,6 +155,12 @@ pub fn run(a: Args) -> Result<()> {
         }
         None => Vec::new(),
     };
+    // The ITV masks' grid, checked before any work (a spacing that makes no mask, or more
+    // memory than there is, fails here, not after the measuring).
+    let itv_grid = match &a.itv {
+        Some(_) => Some(itv_grid(&file, a.itv_spacing, times[0])?),
+        None => None,
+    };
     let m = measure(&file, &times, a.resolution)?;
     if let Some(out) = &a.output {
         let csv = m.to_csv();
@@ -164,10 +170,8 @@ pub fn run(a: Args) -> Result<()> {
         errln!("wrote {}", out.display());
     }
     print_summary(&m);
-    if let Some(dir) = &a.itv {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create directory {}", dir.display()))?;
-        write_itv(&file, &m, &times, a.resolution, a.itv_spacing, &itv_files)?;
+    if let (Some(dir), Some(grid)) = (&a.itv, &itv_grid) {
+        write_itv(&file, &m, &times, a.resolution, dir, grid, &itv_files)?;
     }
     if a.json {
         outln!("{}", serde_json::to_string_pretty(&m.to_json(&a.model))?)?;
@@ -230,15 +234,11 @@ fn print_summary(m: &Measurement) {
     }
 }
 
-/// Writes each class's ITV mask (NIfTI, its colour tables beside it) and mesh (PLY, LPS).
-fn write_itv(
-    file: &ModelFile,
-    m: &Measurement,
-    times: &[f64],
-    resolution: u32,
-    spacing: Option<f64>,
-    files: &[(PathBuf, PathBuf)],
-) -> Result<()> {
+/// The ITV masks' grid over the model's domain: `spacing` (default 128 voxels along the
+/// longest side) checked against the domain ([`VoxelGrid::for_mask`]) and the masks' memory
+/// (a byte per voxel and class, and the written frame's 4 bytes per voxel) against what is
+/// available.
+fn itv_grid(file: &ModelFile, spacing: Option<f64>, time: f64) -> Result<VoxelGrid> {
     let model = file.model();
     let (lo, hi) = model.domain().bounds();
     let (lo, hi) = (lo.map(f64::from), hi.map(f64::from));
@@ -246,8 +246,32 @@ fn write_itv(
         let longest = (0..3).map(|i| hi[i] - lo[i]).fold(0.0, f64::max);
         longest / 128.0
     });
-    let grid = VoxelGrid::from_bounds(lo, hi, [spacing; 3], vec![times[0]])?;
-    let masks = itv_masks(&model, &grid, times)?;
+    let grid = VoxelGrid::for_mask("--itv-spacing", lo, hi, spacing, time)?;
+    let voxels = grid.voxels_per_frame() as f64;
+    super::memory::check(
+        &format!("ITV masks of {:?} voxels", grid.dims),
+        voxels * (model.num_classes() as f64 + 4.0),
+        "use a coarser --itv-spacing",
+        super::memory::MemoryArgs::default(),
+    )?;
+    Ok(grid)
+}
+
+/// Writes each class's ITV mask (NIfTI, its colour tables beside it) and mesh (PLY, LPS) into
+/// `dir`, all files or none ([`OutputSet`]).
+fn write_itv(
+    file: &ModelFile,
+    m: &Measurement,
+    times: &[f64],
+    resolution: u32,
+    dir: &Path,
+    grid: &VoxelGrid,
+    files: &[(PathBuf, PathBuf)],
+) -> Result<()> {
+    let model = file.model();
+    let mut set = OutputSet::new();
+    set.create_dir(dir)?;
+    let masks = itv_masks(&model, grid, times)?;
     let options = dynaslice_mesh::Options {
         resolution,
         ..dynaslice_mesh::Options::default()
@@ -268,11 +292,22 @@ fn write_itv(
             .iter()
             .map(|&i| if i { c.label } else { 0 })
             .collect();
+        let voxels = labels.iter().filter(|&&l| l != 0).count();
+        if voxels == 0 {
+            bail!(
+                "{}: class {:?} is in no voxel of the ITV mask at --itv-spacing {}; nothing \
+                 written",
+                volume_path.display(),
+                c.name,
+                grid.affine[0][0]
+            );
+        }
         let mut stream = NiftiStream::create(volume_path, &header)?;
         stream.write_frame(&labels)?;
-        stream.finish()?;
+        stream.finish_into(&mut set)?;
         let (ctbl, label) = table_paths(volume_path);
-        write_tables(
+        stage_tables(
+            &mut set,
             &ctbl,
             &label,
             std::slice::from_ref(&ClassInfo {
@@ -283,8 +318,9 @@ fn write_itv(
         let info = MeshInfo::new(&c.name, Space::Lps)
             .with_label(c.label)
             .with_color(m.colors[k]);
-        mesh_io::write(mesh_path, &meshes[k], Format::Ply, &info)?;
-        let voxels = masks[k].iter().filter(|&&i| i).count() as f64;
+        let bytes = mesh_io::encode(&meshes[k], Format::Ply, &info)?;
+        set.write(mesh_path, &bytes)?;
+        let voxels = voxels as f64;
         errln!(
             "wrote {} ({} {} by voxels) and {} ({} {} enclosed)",
             volume_path.display(),
@@ -295,5 +331,5 @@ fn write_itv(
             m.units.volume(),
         );
     }
-    Ok(())
+    set.commit()
 }

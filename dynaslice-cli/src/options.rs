@@ -96,6 +96,11 @@ pub fn non_negative_f64_to(hi: f64) -> impl Fn(&str) -> Result<f64, String> + Cl
     move |s| real(s, 0.0, false, hi)
 }
 
+/// A finite f64 in [`lo`, `hi`].
+pub fn f64_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync {
+    move |s| real(s, lo, false, hi)
+}
+
 /// A finite f32 in (0, `hi`].
 pub fn positive_f32(hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
     move |s| real_f32(s, 0.0, true, f64::from(hi))

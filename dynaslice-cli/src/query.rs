@@ -29,7 +29,7 @@ pub struct Args {
     #[arg(allow_negative_numbers = true, value_parser = finite_f32)]
     z: f32,
     /// World time (the model's time units), within the model's time range; optional for a
-    /// static model (trained on one timestep).
+    /// static model (trained on one timestep), which is the same at every time.
     #[arg(allow_negative_numbers = true, value_parser = finite_f32)]
     t: Option<f32>,
 }
@@ -39,7 +39,14 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let file = ModelFile::open(&args.model)?;
     let model = file.model();
-    let t = file.time("T", args.t)?;
+    // A static model is the same at every time: any T is answered at its one time, with a
+    // note, as `mesh` and `eval reference` do (issue 37).
+    let t = match args.t {
+        Some(t) if file.is_static() => {
+            super::times::model_times(&file, &args.model, "T", &[t], "answering")?[0]
+        }
+        t => file.time("T", t)?,
+    };
     let k = model.num_classes();
     let (mut f, mut grad, mut dfdt) = (vec![0.0; k], vec![[0.0; 3]; k], vec![0.0; k]);
     let x = [args.x, args.y, args.z];

@@ -52,12 +52,15 @@ pub struct Args {
     /// the 3D picture).
     #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
     resolution: u32,
+    /// Replace an existing page (a symbolic link there is replaced, its target left alone).
+    #[arg(long)]
+    force: bool,
 }
 
 /// Runs `dynaslice report`.
 pub fn run(a: Args) -> Result<()> {
     let loss_csv = beside(&a.model, ".loss.csv");
-    let mut plan = Plan::new([&a.model, &loss_csv], true);
+    let mut plan = Plan::new([&a.model, &loss_csv], a.force);
     plan.file("-o", &a.output, Kind::Html)?;
     let file = ModelFile::open(&a.model)?;
     let times = measure::times_of(&file, a.times)?;

@@ -5,7 +5,7 @@
 
 use super::console::errln;
 use super::input::regular_file;
-use super::options::{count, positive_f64, positive_f64_to, time_series, MAX_THREADS, MAX_TIMES};
+use super::options::{count, f64_in, non_negative_f64_to, time_series, MAX_THREADS, MAX_TIMES};
 use super::progress::Progress;
 use super::times::times_option;
 use anyhow::{anyhow, bail, Context, Result};
@@ -23,7 +23,7 @@ use dynaslice_geometry::Polygon;
 use dynaslice_mesh::planar::{contour_plane, PlanarOptions, PlaneField, Union, Whole, EVERYWHERE};
 use dynaslice_mesh::{LevelSets, Surfaces};
 use dynaslice_model::ModelFile;
-use dynaslice_output::Plan;
+use dynaslice_output::{OutputSet, Plan};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -68,13 +68,13 @@ pub struct Args {
     /// named "ITV <class>".
     #[arg(long)]
     itv: bool,
-    /// In-plane sampling step (mm) of the contouring grid (default: the reference's pixel
-    /// spacing, else 1 mm).
-    #[arg(long, value_parser = positive_f64_to(100.0))]
+    /// In-plane sampling step (mm) of the contouring grid, 0.01 to 100 (default: the
+    /// reference's pixel spacing, else 1 mm).
+    #[arg(long, value_parser = f64_in(MIN_STEP_MM, MAX_STEP_MM))]
     step: Option<f64>,
-    /// Simplification tolerance (mm): the most a contour may move from the exact zero level
-    /// set's vertices (Douglas–Peucker); 0 keeps every vertex.
-    #[arg(long, default_value_t = 0.1, value_parser = positive_f64)]
+    /// Simplification tolerance (mm), 0 to 5: the most a contour may move from the exact zero
+    /// level set's vertices (Douglas–Peucker); 0 keeps every vertex.
+    #[arg(long, default_value_t = 0.1, value_parser = non_negative_f64_to(MAX_TOLERANCE_MM))]
     tolerance: f64,
     /// Output folder (created where missing).
     #[arg(short, long, value_name = "DIR")]
@@ -86,6 +86,14 @@ pub struct Args {
     #[arg(long, value_parser = count(1, MAX_THREADS))]
     threads: Option<usize>,
 }
+
+/// The finest contouring step (mm): a hundredth of a millimetre is far below any CT's pixel.
+const MIN_STEP_MM: f64 = 0.01;
+/// The coarsest contouring step (mm).
+const MAX_STEP_MM: f64 = 100.0;
+/// The largest simplification (mm): half a centimetre, a planning margin's size; beyond it a
+/// contour no longer follows the model's surface.
+const MAX_TOLERANCE_MM: f64 = 5.0;
 
 /// The manifest written beside the structure sets.
 const MANIFEST: &str = "rtstruct.seq";
@@ -140,8 +148,10 @@ pub fn run(a: Args) -> Result<()> {
     let names: Vec<String> = (0..times.len())
         .map(|i| format!("RS_t{i:03}.dcm"))
         .collect();
-    std::fs::create_dir_all(&a.output)
-        .with_context(|| format!("cannot create {}", a.output.display()))?;
+    // Every file (the structure sets and their manifest) goes in place at the end, all or
+    // none; a folder made for them is removed again if the run fails.
+    let mut files = OutputSet::new();
+    files.create_dir(&a.output)?;
     for name in names.iter().map(String::as_str).chain([MANIFEST]) {
         let path = a.output.join(name);
         plan.beside(&path)?;
@@ -215,11 +225,21 @@ pub fn run(a: Args) -> Result<()> {
             rois: set_rois,
         };
         let path = a.output.join(&names[i]);
-        rtwrite::write(&path, &template, &series, &set)?;
-        manifest_text += &format!("{} {}\n", t as f32, names[i]);
         let count: usize = set.rois.iter().map(|r| r.contours.len()).sum();
+        if count == 0 {
+            bail!(
+                "{} (t = {}): no structure has a contour on any of the {} planes (step {} mm); \
+                 nothing written. Check --times, the reference geometry, and --step",
+                path.display(),
+                t as f32,
+                planes.len(),
+                options.step
+            );
+        }
+        rtwrite::stage(&mut files, &path, &template, &series, &set)?;
+        manifest_text += &format!("{} {}\n", t as f32, names[i]);
         progress.println(format!(
-            "wrote {} (t = {}): {} ROIs, {count} contours",
+            "contoured {} (t = {}): {} ROIs, {count} contours",
             path.display(),
             t as f32,
             set.rois.len()
@@ -227,7 +247,8 @@ pub fn run(a: Args) -> Result<()> {
         progress.inc();
     }
     progress.finish();
-    dynaslice_output::write_atomically(&a.output.join(MANIFEST), manifest_text.as_bytes())?;
+    files.write(&a.output.join(MANIFEST), manifest_text.as_bytes())?;
+    files.commit()?;
     errln!(
         "wrote {} ({} phases) in {:.1} s; {} planes, step {} mm, tolerance {} mm",
         a.output.join(MANIFEST).display(),

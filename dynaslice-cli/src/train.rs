@@ -28,8 +28,6 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::ops::ControlFlow;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 /// Arguments of `dynaslice train`.
@@ -37,9 +35,10 @@ use std::time::{Duration, Instant};
 #[command(after_help = "\
 Beside MODEL.dsm the run writes MODEL.dsm.loss.csv (one row per step) and MODEL.dsm.loss.png.
 While it goes it keeps a checkpoint MODEL.dsm.ckpt with its loss rows MODEL.dsm.ckpt.loss.csv;
-a finished run removes both, an interrupted one keeps them. Ctrl-C stops after the current
-step, saves the checkpoint and prints the command that continues the run (--resume). A run
-that would replace an existing model or discard an existing checkpoint needs --force.")]
+a finished run removes both, an interrupted one keeps them. Ctrl-C (or SIGTERM, SIGHUP) stops
+after the current step, saves the checkpoint and prints the command that continues the run
+(--resume). A run that would replace an existing model or discard an existing checkpoint needs
+--force; the loss rows of a run killed before its first checkpoint do not.")]
 pub struct Args {
     #[command(flatten)]
     input: InputArgs,
@@ -130,29 +129,6 @@ pub struct Args {
     checkpoint_minutes: f64,
 }
 
-/// Set by Ctrl-C: the run stops after the current step and saves its checkpoint.
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
-/// Installs the Ctrl-C handler once per process (the demo trains through this module too).
-/// A second Ctrl-C ends the process at once.
-fn catch_interrupt() {
-    static INSTALLED: OnceLock<()> = OnceLock::new();
-    INSTALLED.get_or_init(|| {
-        let installed = ctrlc::set_handler(|| {
-            if INTERRUPTED.swap(true, Ordering::SeqCst) {
-                std::process::exit(130);
-            }
-            errln!(
-                "\ninterrupted: stopping after this step to save the checkpoint \
-                 (Ctrl-C again to quit without it)"
-            );
-        });
-        if let Err(e) = installed {
-            log::warn!("Ctrl-C will end training without a checkpoint: {e}");
-        }
-    });
-}
-
 /// The command that continues this run: the process's own command line with `--resume`,
 /// quoted for a POSIX shell.
 fn resume_command() -> String {
@@ -227,9 +203,11 @@ pub fn run(a: Args) -> Result<()> {
         space,
         units,
     };
-    catch_interrupt();
+    // SIGINT, SIGTERM and SIGHUP stop the run after this step, with a checkpoint.
+    let graceful = super::signals::graceful();
     let mut console = Console::new();
     let trained = fit(&seq, &spec, &record, Some(&files), &mut console);
+    drop(graceful);
     console.finish();
     let trained = trained?;
     if trained.stopped {
@@ -340,7 +318,7 @@ impl Observer for Console {
             }
             None => {}
         }
-        if INTERRUPTED.load(Ordering::SeqCst) {
+        if super::signals::stop_requested() {
             ControlFlow::Break(())
         } else {
             ControlFlow::Continue(())

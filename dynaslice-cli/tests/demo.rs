@@ -4,17 +4,15 @@ use dynaslice_core::ModelBytes;
 use dynaslice_data::nifti::read_volume;
 use std::process::Command;
 
-#[test]
-fn demo_writes_model_meshes_series_labels_and_figures() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("demo");
-    let run = Command::new(env!("CARGO_BIN_EXE_dynaslice"))
+/// The demo at a tiny size (`steps` training steps) into `out`.
+fn demo(out: &std::path::Path, steps: &str) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_dynaslice"))
         .args([
             "demo",
             "-o",
             out.to_str().unwrap(),
             "--steps",
-            "3",
+            steps,
             "--resolution",
             "16",
             "--widths",
@@ -23,7 +21,14 @@ fn demo_writes_model_meshes_series_labels_and_figures() {
             "2000",
         ])
         .output()
-        .unwrap();
+        .unwrap()
+}
+
+#[test]
+fn demo_writes_model_meshes_series_labels_and_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let run = demo(&out, "3");
     let log = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{log}");
     for line in [
@@ -82,4 +87,42 @@ fn demo_writes_model_meshes_series_labels_and_figures() {
             "{png}"
         );
     }
+    // A second run into the folder the first made (and marked) replaces its outputs.
+    let model = std::fs::read(out.join("model.dsm")).unwrap();
+    let again = demo(&out, "4");
+    assert!(
+        again.status.success(),
+        "{}",
+        String::from_utf8_lossy(&again.stderr)
+    );
+    assert_ne!(std::fs::read(out.join("model.dsm")).unwrap(), model);
+}
+
+/// Issue 37: the demo never writes into a folder of the user's that holds files (it passed
+/// --force to its subcommands, replacing a user's model.dsm and labels.nii.gz in `-o .`).
+#[test]
+fn demo_refuses_a_users_folder_and_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mine = dir.path().join("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("model.dsm"), b"the user's model").unwrap();
+    std::fs::write(mine.join("labels.nii.gz"), b"the user's labels").unwrap();
+    let run = demo(&mine, "3");
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("labels.nii.gz") && err.contains("--force"),
+        "{err}"
+    );
+    assert!(!err.contains("$ dynaslice synth"), "the demo ran: {err}");
+    let mut left: Vec<_> = std::fs::read_dir(&mine)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["labels.nii.gz", "model.dsm"]);
+    assert_eq!(
+        std::fs::read(mine.join("model.dsm")).unwrap(),
+        b"the user's model"
+    );
 }

@@ -16,7 +16,7 @@ struct Case {
 }
 
 /// One small run of each writing command, each quick on the two-organ model.
-const CASES: [Case; 8] = [
+const CASES: [Case; 10] = [
     Case {
         what: "mesh, one class",
         args: &[
@@ -116,6 +116,41 @@ const CASES: [Case; 8] = [
         what: "man",
         args: &["man", "-o", "{D}/man1"],
     },
+    Case {
+        what: "report",
+        args: &[
+            "report",
+            "{M}",
+            "--times",
+            "0:0.8:2",
+            "--resolution",
+            "8",
+            "-o",
+            "{D}/r.html",
+        ],
+    },
+    Case {
+        what: "measure --itv",
+        args: &[
+            "measure",
+            "{M}",
+            "--times",
+            "0:0.8:2",
+            "--resolution",
+            "8",
+            "--itv",
+            "{D}/itv",
+        ],
+    },
+];
+
+/// The writing commands whose output is several files, which must appear all or none.
+const MULTI_FILE: [&str; 5] = [
+    "mesh, per-class files beside -o",
+    "mesh series",
+    "labels NIfTI",
+    "labels .seg.nrrd",
+    "measure --itv",
 ];
 
 fn args(case: &Case, model: &Path, dir: &Path) -> Vec<String> {
@@ -289,8 +324,9 @@ fn a_run_on_an_output_another_run_is_writing_refuses_and_leaves_nothing() {
     for case in &CASES {
         let dir = tempfile::tempdir().unwrap();
         let argv = args(case, &model, dir.path());
-        // The main output: the value after -o.
-        let output = PathBuf::from(&argv[argv.iter().position(|a| a == "-o").unwrap() + 1]);
+        // The main output: the value after -o (--itv for measure's folder).
+        let option = argv.iter().position(|a| a == "-o" || a == "--itv").unwrap();
+        let output = PathBuf::from(&argv[option + 1]);
         // Another run's claim, held by this process as the other run would hold it.
         let claim = dynaslice_output::claim(&output).unwrap();
         let before = snapshot(dir.path());
@@ -393,4 +429,130 @@ fn temporaries_of_killed_runs_are_removed_and_live_ones_kept() {
         assert!(err.contains(name), "{name} not reported: {err}");
     }
     assert!(live.exists(), "a live writer's temporary was removed");
+}
+
+/// Mounts a tmpfs of `pages` 4 KiB pages at `dir` (unmounted when the guard drops), or `None`
+/// where mounting is not permitted (not root, a container without the capability).
+fn small_disk(dir: &Path, pages: u64) -> Option<Unmount> {
+    let ok = Command::new("mount")
+        .args([
+            "-t",
+            "tmpfs",
+            "-o",
+            &format!("size={}k", 4 * pages),
+            "tmpfs",
+        ])
+        .arg(dir)
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    ok.then(|| Unmount(dir.to_path_buf()))
+}
+
+struct Unmount(PathBuf);
+
+impl Drop for Unmount {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
+}
+
+/// Pages a tmpfs holding `files` (under `dir`) uses: each file's size rounded up to pages.
+fn pages_of(dir: &Path) -> u64 {
+    snapshot(dir)
+        .into_iter()
+        .filter(|(p, _)| dir.join(p).is_file())
+        .map(|(_, bytes)| (bytes.len() as u64).div_ceil(4096))
+        .sum()
+}
+
+/// Issue 37: every multi-file output on a disk that fills up at some point of the run (a
+/// tmpfs of sizes from one page to what the whole output needs, lock files included)
+/// either succeeds whole or fails leaving the folder exactly as it was: nothing new in an empty
+/// folder, and with --force over an earlier output of the same run the earlier files intact.
+#[test]
+fn multi_file_outputs_are_all_or_nothing_when_the_disk_fills() {
+    let home = tempfile::tempdir().unwrap();
+    let model = model_in(home.path());
+    let probe = tempfile::tempdir().unwrap();
+    let Some(mounted) = small_disk(probe.path(), 1) else {
+        eprintln!("skipped: cannot mount a tmpfs here (needs root)");
+        return;
+    };
+    drop(mounted);
+    for case in CASES.iter().filter(|c| MULTI_FILE.contains(&c.what)) {
+        // What a whole output takes, from a run on an ordinary disk.
+        let whole = tempfile::tempdir().unwrap();
+        succeeded(&dynaslice(&args(case, &model, whole.path())));
+        let needed = pages_of(whole.path());
+        let earlier = snapshot(whole.path());
+        let (mut failed, mut whole_runs) = (0, 0);
+        for forced in [false, true] {
+            let base = if forced { needed } else { 0 };
+            // Sizes from one page to past the whole output (lock files and a series folder's
+            // entries take pages too), at most 6 of them to keep the test short.
+            let top = needed + 8;
+            let sizes = (1..top).step_by((top as usize).div_ceil(6)).chain([top]);
+            for pages in sizes {
+                let dir = tempfile::tempdir().unwrap();
+                let _disk = small_disk(dir.path(), base + pages).expect("mounted above");
+                let mut argv = args(case, &model, dir.path());
+                if forced {
+                    // The earlier output, then a different run over it (the other mesh format's
+                    // bytes differ too: another resolution).
+                    for (rel, bytes) in &earlier {
+                        let path = dir.path().join(rel);
+                        if bytes.is_empty() && whole.path().join(rel).is_dir() {
+                            std::fs::create_dir_all(&path).unwrap();
+                        } else {
+                            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+                            std::fs::write(&path, bytes).unwrap();
+                        }
+                    }
+                    argv.push("--force".into());
+                    if let Some(i) = argv.iter().position(|a| a == "--resolution") {
+                        argv[i + 1] = "12".into();
+                    }
+                }
+                let before = snapshot(dir.path());
+                let out = dynaslice(&argv);
+                let err = String::from_utf8_lossy(&out.stderr);
+                let after = snapshot(dir.path());
+                if out.status.success() {
+                    whole_runs += 1;
+                    let names: Vec<_> = after.keys().collect();
+                    assert_eq!(
+                        names,
+                        earlier.keys().collect::<Vec<_>>(),
+                        "{} on {pages} pages: a successful run left other files",
+                        case.what
+                    );
+                } else {
+                    failed += 1;
+                    assert_eq!(out.status.code(), Some(1), "{}: {err}", case.what);
+                    assert!(
+                        err.contains("No space left"),
+                        "{} on {pages} pages: {err}",
+                        case.what
+                    );
+                    assert_eq!(
+                        after,
+                        before,
+                        "{} on {pages} pages ({}): a failed run changed the folder: {err}",
+                        case.what,
+                        if forced {
+                            "over an earlier output"
+                        } else {
+                            "empty folder"
+                        }
+                    );
+                }
+            }
+        }
+        assert!(
+            failed > 0 && whole_runs > 0,
+            "{}: {failed} failed and {whole_runs} whole runs: the sizes did not span the output",
+            case.what
+        );
+    }
 }

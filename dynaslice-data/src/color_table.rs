@@ -17,11 +17,11 @@
 //!   warning.
 //!
 //! [`table_paths`] names the two files beside a volume; each is written under a temporary name
-//! and renamed ([`dynaslice_output::write_atomically`]).
+//! and renamed ([`dynaslice_output::OutputSet`]).
 
 use std::path::{Path, PathBuf};
 
-use dynaslice_output::write_atomically;
+use dynaslice_output::OutputSet;
 use dynaslice_sequence::error::{DataError, ErrorKind, Result};
 use dynaslice_sequence::palette::class_color;
 use dynaslice_sequence::sequence::ClassInfo;
@@ -132,9 +132,23 @@ pub fn itksnap_labels(classes: &[ClassInfo]) -> (String, Vec<&ClassInfo>) {
     (text, left_out)
 }
 
-/// Writes [`slicer_ctbl`] to `path` and [`itksnap_labels`] to `label_path`, each atomically;
-/// a class left out of a table is named in a warning.
+/// Writes [`slicer_ctbl`] to `path` and [`itksnap_labels`] to `label_path`, both or neither
+/// ([`OutputSet`]); a class left out of a table is named in a warning.
 pub fn write_tables(ctbl_path: &Path, label_path: &Path, classes: &[ClassInfo]) -> Result<()> {
+    let mut set = OutputSet::new();
+    stage_tables(&mut set, ctbl_path, label_path, classes)?;
+    set.commit()
+        .map_err(|e| DataError::new(ErrorKind::Io(std::io::Error::other(format!("{e:#}")))))
+}
+
+/// Adds the two tables of [`write_tables`] to `set`, which puts them in place with the set's
+/// other files (the label volume they describe).
+pub fn stage_tables(
+    set: &mut OutputSet,
+    ctbl_path: &Path,
+    label_path: &Path,
+    classes: &[ClassInfo],
+) -> Result<()> {
     let title = ctbl_path
         .file_stem()
         .map_or(String::new(), |s| s.to_string_lossy().into_owned());
@@ -153,7 +167,7 @@ pub fn write_tables(ctbl_path: &Path, label_path: &Path, classes: &[ClassInfo]) 
                 c.label
             );
         }
-        write_atomically(path, text.as_bytes()).map_err(|e| {
+        set.write(path, text.as_bytes()).map_err(|e| {
             DataError::new(ErrorKind::Io(std::io::Error::other(format!("{e:#}")))).in_file(path)
         })?;
     }

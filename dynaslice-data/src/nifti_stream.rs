@@ -19,7 +19,7 @@
 
 use crate::voxel_type::VoxelType;
 use anyhow::{bail, ensure, Context, Result};
-use dynaslice_output::{create_temporary, persist};
+use dynaslice_output::{create_temporary, persist, OutputSet};
 use flate2::write::GzEncoder;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -200,6 +200,19 @@ impl NiftiStream {
 
     /// Completes the file after the last frame: flushes, syncs and renames it into place.
     pub fn finish(self) -> Result<()> {
+        let (file, tmp, path) = self.complete()?;
+        persist(file, tmp, &path)
+    }
+
+    /// Completes the file after the last frame and adds it to `set`, which puts it in place
+    /// with the set's other files (a mask with its colour tables, all or none).
+    pub fn finish_into(self, set: &mut OutputSet) -> Result<()> {
+        let (file, tmp, path) = self.complete()?;
+        set.stage(file, tmp, &path)
+    }
+
+    /// The complete temporary (every frame written, the stream flushed) and its final path.
+    fn complete(self) -> Result<(File, TempPath, PathBuf)> {
         ensure!(
             self.written == self.frames,
             "{}: {} of {} frames written",
@@ -215,7 +228,7 @@ impl NiftiStream {
                 .and_then(|w| w.into_inner().map_err(|e| e.into_error())),
         }
         .with_context(|| format!("cannot write {tmp}"))?;
-        persist(file, self.tmp, &self.path)
+        Ok((file, self.tmp, self.path))
     }
 
     fn write_bytes(&mut self, bytes: &[u8]) -> Result<()> {

@@ -47,7 +47,8 @@ pub const DS_E_BUFFER_TOO_SMALL: c_int = -7;
 /// A class number outside `1..=K`.
 pub const DS_E_NO_SUCH_CLASS: c_int = -8;
 /// Any other invalid argument: a misaligned pointer, overlapping input and output buffers, or a
-/// count whose buffer size overflows `size_t`.
+/// count whose buffer would exceed `PTRDIFF_MAX` bytes (`SIZE_MAX`, for one), on every call
+/// that takes a count or length.
 pub const DS_E_INVALID_ARGUMENT: c_int = -9;
 /// A bug in the library (a caught Rust panic); the message says where.
 pub const DS_E_INTERNAL: c_int = -10;

@@ -151,7 +151,8 @@ pub fn contour_plane<F: PlaneField>(
         rect.min,
         rect.max
     );
-    let n = extent.map(|e| (e / options.step).ceil() as usize + 1);
+    // Saturating: a step of 1e-30 makes a count past usize, refused below (not wrapped to 0).
+    let n = extent.map(|e| ((e / options.step).ceil() as usize).saturating_add(1));
     anyhow::ensure!(
         n[0].saturating_mul(n[1]) <= MAX_SAMPLES,
         "a {}×{} grid on the plane is over the limit of {MAX_SAMPLES} samples; use a coarser step",

@@ -71,6 +71,30 @@ impl Split {
     /// is left, or nothing is withheld.
     pub fn training(&self, seq: &Sequence) -> Result<Sequence> {
         let n = seq.frames().len();
+        // A range past the input's end selects nothing: say so rather than withhold less than
+        // asked (issue 37: `--holdout-frames 100:` on 20 frames matched nothing, silently).
+        if let Some(r) = self.frames {
+            ensure!(
+                (0..n).any(|f| r.contains(f, n)),
+                "the held-out frames {r} select none of the input's {n} frames (indices 0 to {})",
+                n.saturating_sub(1)
+            );
+        }
+        if let Some(r) = self.planes {
+            let most = seq
+                .frames()
+                .iter()
+                .map(|f| f.planes.len())
+                .max()
+                .unwrap_or(0);
+            ensure!(
+                seq.frames()
+                    .iter()
+                    .any(|f| (0..f.planes.len()).any(|p| r.contains(p, f.planes.len()))),
+                "the held-out planes {r} select no plane of any frame (frames have at most {most} \
+                 planes, indices from 0)"
+            );
+        }
         let (classes, frames) = seq.clone().into_parts();
         let mut withheld = 0;
         let kept: Vec<_> = frames
@@ -329,6 +353,13 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("withholds nothing"));
+        // A range past the input's end is refused, not an empty selection (issue 37).
+        let past = Split {
+            frames: Some("100:".parse().unwrap()),
+            planes: Some("0::3".parse().unwrap()),
+        };
+        let e = past.training(&seq).unwrap_err().to_string();
+        assert!(e.contains("select none of the input's 5 frames"), "{e}");
     }
 
     /// The model is the sphere the annotations trace: IoU ≈ 1 in every category. Annotations

@@ -39,7 +39,7 @@ fn split(path: &Path) -> Result<(&Path, String)> {
 
 /// The extension a temporary of `name` keeps, so writers that pick the format by it still do
 /// (`.nii.gz` counts as one).
-fn suffix(name: &str) -> &str {
+pub(crate) fn suffix(name: &str) -> &str {
     if name.to_ascii_lowercase().ends_with(".nii.gz") {
         &name[name.len() - 7..]
     } else {
@@ -48,7 +48,7 @@ fn suffix(name: &str) -> &str {
 }
 
 /// Random characters in a temporary's name (tempfile's default).
-const RANDOM_CHARS: usize = 6;
+pub(crate) const RANDOM_CHARS: usize = 6;
 
 /// Creates a temporary file beside `path`, `.NAME.XXXXXX.EXT` (a unique name, so concurrent
 /// writers never share one), with the mode a new `File::create` would give, and locked while
@@ -72,6 +72,8 @@ pub fn create_temporary(path: &Path) -> Result<(File, TempPath)> {
     tmp.as_file()
         .try_lock()
         .with_context(|| format!("cannot lock {}", tmp.path().display()))?;
+    // Removed if a signal ends the process before it is renamed or deleted.
+    crate::cleanup::register(tmp.path());
     Ok(tmp.into_parts())
 }
 
@@ -88,8 +90,16 @@ pub fn persist(file: File, tmp: TempPath, path: &Path) -> Result<()> {
     }
     file.sync_all()
         .with_context(|| format!("cannot sync {}", tmp.display()))?;
-    tmp.persist(path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    // The rename and the list's update as one step for a signal handler
+    // ([`crate::cleanup::remove_all_and_exit`] takes the same lock).
+    let mut list = crate::cleanup::lock();
+    let name = tmp.to_path_buf();
+    let renamed = tmp.persist(path);
+    if renamed.is_ok() {
+        list.forget(&name);
+    }
+    drop(list);
+    renamed.with_context(|| format!("cannot write {}", path.display()))?;
     drop(file);
     Ok(())
 }
@@ -99,7 +109,13 @@ pub fn persist(file: File, tmp: TempPath, path: &Path) -> Result<()> {
 /// [`persist`] when `write` succeeds and deleted when it fails.
 pub fn write_via<T>(path: &Path, write: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
     let (file, tmp) = create_temporary(path)?;
-    let value = write(&tmp)?;
+    let value = match write(&tmp) {
+        Ok(value) => value,
+        Err(e) => {
+            crate::cleanup::forget(&tmp);
+            return Err(e);
+        }
+    };
     persist(file, tmp, path)?;
     Ok(value)
 }
@@ -139,6 +155,7 @@ impl Drop for Claim {
         // Removed while still locked: a run waiting on this file finds it gone (or replaced)
         // after locking it and starts over on a fresh one ([`claim`]).
         let _ = std::fs::remove_file(&self.lock);
+        crate::cleanup::forget(&self.lock);
         let _ = self.file.unlock();
     }
 }
@@ -190,9 +207,16 @@ pub fn claim(path: &Path) -> Result<Claim> {
         if !still_named(&file, &lock) {
             continue;
         }
-        file.set_len(0)
+        if let Err(e) = file
+            .set_len(0)
             .and_then(|()| write!(file, "{}", std::process::id()))
-            .with_context(|| format!("cannot write the lock file {}", lock.display()))?;
+        {
+            // Ours (we hold its lock): not left behind, e.g. on a full disk.
+            let _ = std::fs::remove_file(&lock);
+            return Err(e)
+                .with_context(|| format!("cannot write the lock file {}", lock.display()));
+        }
+        crate::cleanup::register(&lock);
         let mut claim = Claim {
             lock,
             file,

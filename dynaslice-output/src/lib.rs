@@ -5,15 +5,22 @@
 //!   each for the run, so two runs on one output cannot mix;
 //! - [`write_via`] and [`write_atomically`] write each file under a unique temporary name and
 //!   rename it into place when complete, with the mode a plain `File::create` gives
-//!   ([`atomic`]).
+//!   ([`atomic`]);
+//! - [`OutputSet`] writes an output of several files all or nothing ([`set`]);
+//! - [`cleanup`] lists what a run made only for its duration, for a signal handler to remove.
 
 #![warn(missing_docs)]
 
 pub mod atomic;
+pub mod cleanup;
+pub mod folder;
 pub mod plan;
+pub mod set;
 
 pub use atomic::{
     claim, create_temporary, lock_path, persist, remove_stale_temporaries, write_atomically,
     write_via, Claim,
 };
+pub use folder::{prepare_owned_folder, OwnedFolder};
 pub use plan::{Kind, Plan};
+pub use set::OutputSet;

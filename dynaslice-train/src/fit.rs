@@ -61,8 +61,9 @@ impl RunFiles {
     }
 
     /// Whether a run of `spec` may start with the state found on disk: an existing checkpoint
-    /// needs `resume` (continue it) or `force` (discard it). Returns whether the run resumes
-    /// from a checkpoint.
+    /// needs `resume` (continue it) or `force` (discard it); a journal without a checkpoint
+    /// (a run killed before its first checkpoint) is replaced. Returns whether the run
+    /// resumes from a checkpoint.
     pub fn check_state(&self, spec: &TrainSpec) -> Result<bool> {
         let has_checkpoint = self.checkpoint.exists();
         if has_checkpoint && !spec.resume && !spec.force {
@@ -72,14 +73,9 @@ impl RunFiles {
                 self.checkpoint.display()
             );
         }
-        // A journal without its checkpoint is a killed run's leftover, rows of no state.
-        if self.journal.exists() && !has_checkpoint && !spec.force {
-            bail!(
-                "{} holds the loss rows of an earlier run without its checkpoint; force to \
-                 replace it (--force, force=True)",
-                self.journal.display()
-            );
-        }
+        // A journal without its checkpoint is the leftover of a run killed before its first
+        // checkpoint: rows of no state, which nothing can continue. It does not block a fresh
+        // start: the run's first step rewrites it ([`crate::journal::Journal::record`]).
         Ok(has_checkpoint && spec.resume)
     }
 }

@@ -24,7 +24,8 @@ pub fn check_model_limits(classes: &[ClassInfo], domain: &Domain) -> Result<(), 
         return Err(format!(
             "class name {:?} (label {}) is {} bytes long; a model stores at most {MAX_NAME_LEN} \
              (rename it, e.g. with --label-names)",
-            c.name,
+            // A name of megabytes is quoted as its first 80 bytes (issue 37).
+            dynaslice_sequence::error::excerpt(&c.name),
             c.label,
             c.name.len()
         ));
@@ -125,6 +126,13 @@ mod tests {
         let long = "x".repeat(MAX_NAME_LEN + 1);
         let e = check_model_limits(&[class(&long, 3)], &d).unwrap_err();
         assert!(e.contains("57 bytes") && e.contains("label 3"), "{e}");
+        let huge_name = "y".repeat(200_000);
+        let e = check_model_limits(&[class(&huge_name, 3)], &d).unwrap_err();
+        assert!(
+            e.len() < 400 && e.contains("200000 bytes"),
+            "{} bytes",
+            e.len()
+        );
         let many: Vec<ClassInfo> = (0..65).map(|i| class("c", i)).collect();
         assert!(check_model_limits(&many, &d)
             .unwrap_err()

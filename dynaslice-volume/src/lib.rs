@@ -22,10 +22,10 @@
 pub mod pruned;
 pub mod voxel_grid;
 
-use dynaslice_data::color_table::{table_paths, write_tables};
+use dynaslice_data::color_table::{stage_tables, table_paths};
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
 use dynaslice_data::nrrd::{
-    frame_path, sequence_path, write_segmentation, SegmentationHeader, SequenceWriter,
+    frame_path, sequence_path, stage_segmentation, SegmentationHeader, SequenceWriter,
 };
 use dynaslice_data::ClassInfo;
 pub use pruned::{Evaluation, PruneStats, DEFAULT_SAFETY};
@@ -33,6 +33,7 @@ pub use voxel_grid::VoxelGrid;
 
 use anyhow::{bail, Result};
 use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
+use dynaslice_output::OutputSet;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -191,8 +192,10 @@ pub fn write_model_labels(
 }
 
 /// [`write_model_labels`] by `options`: its evaluation, the classes' colours (in the
-/// segmentations, the sequence and the colour tables) and the companion files, which are
-/// written, each atomically, once every frame is in.
+/// segmentations, the sequence and the colour tables) and the companion files. Every file
+/// of the run appears once every frame is in, all together
+/// ([`dynaslice_output::OutputSet`]): on an error nothing new is left and an earlier output
+/// is untouched.
 pub fn write_model_labels_with(
     model: &Model,
     grid: &VoxelGrid,
@@ -230,6 +233,10 @@ pub fn write_model_labels_with(
         classes,
     };
     let segmentation = is_segmentation(path);
+    // Every file of the run (the volume and its tables, or the frames and their sequence)
+    // goes in place at the end, all or none: a failure or an interruption leaves nothing new
+    // and an earlier output untouched.
+    let mut set = OutputSet::new();
     let mut stream = if segmentation {
         None
     } else {
@@ -257,7 +264,7 @@ pub fn write_model_labels_with(
         }
         match &mut stream {
             Some(stream) => stream.write_frame(&labels)?,
-            None => write_segmentation(&frame_path(path, f, frames), &segments, &labels)?,
+            None => stage_segmentation(&mut set, &frame_path(path, f, frames), &segments, &labels)?,
         }
         if let Some(sequence) = &mut sequence {
             sequence.write_frame(&labels)?;
@@ -266,15 +273,16 @@ pub fn write_model_labels_with(
         on_frame(f);
     }
     if let Some(stream) = stream {
-        stream.finish()?;
+        stream.finish_into(&mut set)?;
         if options.companions {
             let (ctbl, label) = table_paths(path);
-            write_tables(&ctbl, &label, &segments.classes)?;
+            stage_tables(&mut set, &ctbl, &label, &segments.classes)?;
         }
     }
     if let Some(sequence) = sequence {
-        sequence.finish()?;
+        sequence.finish_into(&mut set)?;
     }
+    set.commit()?;
     Ok(counts)
 }
 

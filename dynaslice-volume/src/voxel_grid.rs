@@ -3,6 +3,10 @@
 use anyhow::{bail, ensure, Result};
 use dynaslice_data::label_volume::Geometry;
 
+/// Fewest voxels along the longest side of a mask ([`VoxelGrid::for_mask`]): a coarser mask
+/// is a few blocks, not a shape.
+pub const MIN_MASK_VOXELS: usize = 8;
+
 /// Where a label volume samples the model: `dims` voxels whose centres are at
 /// `world = affine · (i, j, k, 1)`, at each of `times` (one frame per time).
 #[derive(Debug, Clone, PartialEq)]
@@ -75,6 +79,46 @@ impl VoxelGrid {
         };
         grid.frame_interval()?;
         Ok(grid)
+    }
+
+    /// The grid of a mask over the box `lo`..`hi` with cubic voxels of `spacing` (a time
+    /// `time`), refused, naming `option`, where the value makes no mask of a shape: fewer than
+    /// [`MIN_MASK_VOXELS`] voxels along the box's longest side (a voxel nearly as large as the
+    /// box), or more than NIfTI-1's 32767 along any side. Callers check it before any work.
+    pub fn for_mask(
+        option: &str,
+        lo: [f64; 3],
+        hi: [f64; 3],
+        spacing: f64,
+        time: f64,
+    ) -> Result<VoxelGrid> {
+        let longest = (0..3).map(|i| hi[i] - lo[i]).fold(0.0, f64::max);
+        // 1e30 as 1e30, not 31 digits.
+        let spacing_text = if (1e-4..1e6).contains(&spacing) {
+            spacing.to_string()
+        } else {
+            format!("{spacing:e}")
+        };
+        let coarsest = longest / MIN_MASK_VOXELS as f64;
+        let finest = longest / i16::MAX as f64;
+        ensure!(
+            spacing.is_finite() && spacing > 0.0,
+            "{option} {spacing_text}: not a positive number"
+        );
+        ensure!(
+            spacing <= coarsest,
+            "{option} {spacing_text}: the mask would have fewer than {MIN_MASK_VOXELS} voxels along \
+             the longest side of the model's domain ({longest}); allowed: {finest:.3e} to \
+             {coarsest:.4}"
+        );
+        ensure!(
+            spacing >= finest,
+            "{option} {spacing_text}: the mask would have more than {} voxels along the longest side \
+             of the model's domain ({longest}), NIfTI-1's limit; allowed: {finest:.3e} to \
+             {coarsest:.4}",
+            i16::MAX
+        );
+        VoxelGrid::from_bounds(lo, hi, [spacing; 3], vec![time])
     }
 
     /// Voxels in one frame.

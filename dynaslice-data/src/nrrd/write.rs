@@ -12,7 +12,7 @@ use tempfile::TempPath;
 use super::{escape, flip_xy};
 use crate::label_volume::det3;
 use crate::voxel_type::VoxelType;
-use dynaslice_output::{create_temporary, persist, write_atomically};
+use dynaslice_output::{create_temporary, persist, write_atomically, OutputSet};
 use dynaslice_sequence::error::{DataError, ErrorKind, Result};
 use dynaslice_sequence::palette::palette;
 use dynaslice_sequence::sequence::ClassInfo;
@@ -52,6 +52,21 @@ pub fn write_segmentation(path: &Path, header: &SegmentationHeader, labels: &[i3
     let at = |what: String| DataError::new(ErrorKind::Nrrd(what)).in_file(path);
     let bytes = encode(header, labels).map_err(at)?;
     write_atomically(path, &bytes).map_err(|e| at(format!("cannot write: {e:#}")))
+}
+
+/// Adds one frame's segmentation at `path` (as [`write_segmentation`] writes it) to `set`,
+/// which puts it in place with the set's other files (a series' frames and its sequence, all
+/// or none).
+pub fn stage_segmentation(
+    set: &mut OutputSet,
+    path: &Path,
+    header: &SegmentationHeader,
+    labels: &[i32],
+) -> Result<()> {
+    let at = |what: String| DataError::new(ErrorKind::Nrrd(what)).in_file(path);
+    let bytes = encode(header, labels).map_err(at)?;
+    set.write(path, &bytes)
+        .map_err(|e| at(format!("cannot write: {e:#}")))
 }
 
 /// The file of the 3D Slicer sequence beside a segmentation series written to `path`:
@@ -265,6 +280,11 @@ fn encode(h: &SegmentationHeader, labels: &[i32]) -> std::result::Result<Vec<u8>
     gz.finish().map_err(|e| format!("cannot compress: {e}"))
 }
 
+/// A write error of the sequence.
+fn failed(e: String) -> DataError {
+    DataError::new(ErrorKind::Nrrd(format!("cannot write: {e}")))
+}
+
 /// A 3D Slicer sequence of segmentation frames (`.seq.nrrd`) being written frame by frame:
 /// the format of Slicer's Sequences module for a sequence of volumes on one grid, a 4D NRRD
 /// whose last axis is a `list` of frames (`kinds: domain domain domain list`, `labels: "" ""
@@ -346,6 +366,20 @@ impl SequenceWriter {
 
     /// Completes the file after the last frame: flushes, syncs and renames it into place.
     pub fn finish(self) -> Result<()> {
+        let (file, tmp, path) = self.complete()?;
+        persist(file, tmp, &path).map_err(|e| failed(format!("{e:#}")).in_file(&path))
+    }
+
+    /// Completes the file after the last frame and adds it to `set`, which puts it in place
+    /// with the frames' own files (all or none).
+    pub fn finish_into(self, set: &mut OutputSet) -> Result<()> {
+        let (file, tmp, path) = self.complete()?;
+        set.stage(file, tmp, &path)
+            .map_err(|e| failed(format!("{e:#}")).in_file(&path))
+    }
+
+    /// The complete temporary (every frame written, the stream flushed) and its final path.
+    fn complete(self) -> Result<(File, TempPath, PathBuf)> {
         if self.written != self.frames {
             return Err(self.error(format!(
                 "{} of {} frames written",
@@ -353,13 +387,12 @@ impl SequenceWriter {
             )));
         }
         let path = self.path;
-        let failed = |e: String| DataError::new(ErrorKind::Nrrd(format!("cannot write: {e}")));
         let file = self
             .sink
             .finish()
             .and_then(|w| w.into_inner().map_err(|e| e.into_error()))
             .map_err(|e| failed(e.to_string()).in_file(&path))?;
-        persist(file, self.tmp, &path).map_err(|e| failed(format!("{e:#}")).in_file(&path))
+        Ok((file, self.tmp, path))
     }
 
     fn error(&self, what: String) -> DataError {

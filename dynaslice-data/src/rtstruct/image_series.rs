@@ -5,8 +5,9 @@
 //! are not DICOM, and DICOM files without an image plane (an RT Structure Set beside the CT),
 //! are skipped with a warning. It is an error, naming the folder, when the images belong to
 //! more than one series or frame of reference, when an image lacks SOP Class or Instance UID,
-//! Image Position or Orientation (Patient), Pixel Spacing, Rows or Columns, or when no image is
-//! left.
+//! Image Position or Orientation (Patient), Pixel Spacing, Rows or Columns, when no image is
+//! left, or when the images are not one stack: two at one position along the normal (a repeated
+//! Image Position (Patient)) or one not parallel to the others, both named.
 
 use std::path::{Path, PathBuf};
 
@@ -51,7 +52,64 @@ pub struct CtSeries {
     pub slices: Vec<Slice>,
 }
 
-/// Reads the series in folder `dir`. See the [module docs](self) for what is an error.
+/// Slices closer than this (mm) along the stack's normal are at one position.
+const SAME_POSITION_MM: f64 = 1e-3;
+
+/// The most a slice's normal may differ from the first's (the sine of the angle): a series
+/// is one stack of parallel images.
+const PARALLEL_SINE: f64 = 1e-3;
+
+/// Refuses a series whose slices (`order`: sorted along `n`) are not one stack of parallel
+/// images at distinct positions, naming the files: repeated Image Position (Patient) values
+/// would put contours of different images on one plane.
+fn check_stack(
+    slices: &[Slice],
+    files: &[&Path],
+    order: &[usize],
+    n: [f64; 3],
+) -> std::result::Result<(), String> {
+    for (i, s) in slices.iter().enumerate() {
+        let m = normal(&s.orientation);
+        let cross = [
+            m[1] * n[2] - m[2] * n[1],
+            m[2] * n[0] - m[0] * n[2],
+            m[0] * n[1] - m[1] * n[0],
+        ];
+        if dot(cross, cross).sqrt() > PARALLEL_SINE {
+            return Err(format!(
+                "{}: its Image Orientation (Patient) is not parallel to {}'s; a series is one \
+                 stack of parallel images",
+                files[i].display(),
+                files[0].display()
+            ));
+        }
+    }
+    for pair in order.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        let gap = dot(slices[b].image.point, n) - dot(slices[a].image.point, n);
+        if gap.abs() < SAME_POSITION_MM {
+            let repeated = order
+                .iter()
+                .filter(|&&i| {
+                    (dot(slices[i].image.point, n) - dot(slices[a].image.point, n)).abs()
+                        < SAME_POSITION_MM
+                })
+                .count();
+            return Err(format!(
+                "{} and {} are at one position along the stack ({} slices share Image Position \
+                 (Patient) {:?}): the series' slice positions are repeated or inconsistent",
+                files[a].display(),
+                files[b].display(),
+                repeated,
+                slices[a].image.point
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Reads the series in folder `dir`. See the [module docs](self) for what is an error; slices
+/// at one position or not parallel are refused by name.
 pub fn read(dir: &Path) -> Result<CtSeries> {
     let at = |what: String| dicom(what).in_file(dir);
     let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
@@ -67,6 +125,7 @@ pub fn read(dir: &Path) -> Result<CtSeries> {
     }
     paths.sort();
     let mut slices = Vec::new();
+    let mut files: Vec<&Path> = Vec::new();
     let mut ids: Option<(String, String, String)> = None;
     for path in &paths {
         if !is_dicom(path) {
@@ -116,12 +175,20 @@ pub fn read(dir: &Path) -> Result<CtSeries> {
             Some(_) => {}
         }
         slices.push(slice);
+        files.push(path);
     }
     let Some((series_uid, frame_of_reference_uid, study_uid)) = ids else {
         return Err(at("no DICOM image in the folder".into()));
     };
     let n = normal(&slices[0].orientation);
-    slices.sort_by(|a, b| dot(a.image.point, n).total_cmp(&dot(b.image.point, n)));
+    let mut order: Vec<usize> = (0..slices.len()).collect();
+    order.sort_by(|&a, &b| dot(slices[a].image.point, n).total_cmp(&dot(slices[b].image.point, n)));
+    check_stack(&slices, &files, &order, n).map_err(at)?;
+    let mut slices: Vec<Option<Slice>> = slices.into_iter().map(Some).collect();
+    let slices: Vec<Slice> = order
+        .iter()
+        .map(|&i| slices[i].take().expect("each index once"))
+        .collect();
     Ok(CtSeries {
         series: ImageSeries {
             study: Some((STUDY_SOP_CLASS_UID.to_string(), study_uid.clone())),
@@ -223,4 +290,61 @@ pub fn normal(orientation: &[[f64; 3]; 2]) -> [f64; 3] {
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn slice(z: f64, column: [f64; 3]) -> Slice {
+        Slice {
+            image: ImageRef {
+                class_uid: "1.2.840.10008.5.1.4.1.1.2".into(),
+                instance_uid: format!("1.2.3.{}", (z * 10.0) as i64),
+                point: [0.0, 0.0, z],
+            },
+            orientation: [[1.0, 0.0, 0.0], column],
+            spacing: [1.0, 1.0],
+            size: [4, 4],
+        }
+    }
+
+    #[test]
+    fn a_stack_with_repeated_positions_or_tilted_slices_is_refused_by_name() {
+        let files = [
+            Path::new("ct/a.dcm"),
+            Path::new("ct/b.dcm"),
+            Path::new("ct/c.dcm"),
+        ];
+        let n = [0.0, 0.0, 1.0];
+        let straight = [0.0, 1.0, 0.0];
+        let good = [
+            slice(0.0, straight),
+            slice(2.0, straight),
+            slice(4.0, straight),
+        ];
+        check_stack(&good, &files, &[0, 1, 2], n).unwrap();
+        // Two images at z = 2: their contours would share one plane.
+        let repeated = [
+            slice(2.0, straight),
+            slice(0.0, straight),
+            slice(2.0, straight),
+        ];
+        let e = check_stack(&repeated, &files, &[1, 0, 2], n).unwrap_err();
+        assert!(
+            e.contains("ct/a.dcm and ct/c.dcm are at one position"),
+            "{e}"
+        );
+        assert!(e.contains("2 slices share"), "{e}");
+        let tilted = [
+            slice(0.0, straight),
+            slice(2.0, [0.0, 0.8, 0.6]),
+            slice(4.0, straight),
+        ];
+        let e = check_stack(&tilted, &files, &[0, 1, 2], n).unwrap_err();
+        assert!(
+            e.starts_with("ct/b.dcm") && e.contains("not parallel"),
+            "{e}"
+        );
+    }
 }

@@ -38,7 +38,7 @@ use dicom_object::meta::FileMetaTableBuilder;
 use dicom_object::InMemDicomObject;
 
 use super::{dicom, get_items, get_text};
-use dynaslice_output::write_atomically;
+use dynaslice_output::{write_atomically, OutputSet};
 use dynaslice_sequence::error::Result;
 
 /// SOP Class UID of RT Structure Set Storage.
@@ -342,6 +342,20 @@ pub fn write(
 ) -> anyhow::Result<String> {
     let bytes = encode(template, series, set).map_err(|e| e.in_file(path))?;
     write_atomically(path, &bytes.1)?;
+    Ok(bytes.0)
+}
+
+/// Adds `set` as an RT Structure Set at `path` to `files`, which puts it in place with the
+/// set's other files (one per time and their manifest, all or none); otherwise as [`write`].
+pub fn stage(
+    files: &mut OutputSet,
+    path: &Path,
+    template: &Template,
+    series: &ImageSeries,
+    set: &StructureSet,
+) -> anyhow::Result<String> {
+    let bytes = encode(template, series, set).map_err(|e| e.in_file(path))?;
+    files.write(path, &bytes.1)?;
     Ok(bytes.0)
 }
 

@@ -1,12 +1,14 @@
 //! Where the meshes of one extraction run go: one file per (time, class), named so that a
 //! directory of them sorts by class then time, and for a VTP series the ParaView collection
-//! (`series.pvd`) that animates them.
+//! (`series.pvd`) that animates them. The files of a run are one output set
+//! ([`dynaslice_output::OutputSet`]): none appears until [`MeshFiles::finish`], and a run that
+//! fails or is dropped before it leaves nothing new and an earlier set untouched.
 
 use super::super::Mesh;
-use super::{pvd, write, Format, MeshInfo, Space};
+use super::{encode, pvd, Format, MeshInfo, Space};
 use anyhow::{Context, Result};
 use dynaslice_core::ClassInfo;
-use dynaslice_output::write_atomically;
+use dynaslice_output::OutputSet;
 use std::path::{Path, PathBuf};
 
 /// The class part of file names: `class{k}_{name}` (k 1-based) with the name reduced to
@@ -38,6 +40,8 @@ pub struct MeshFiles {
     space: Space,
     kind: Kind,
     entries: Vec<pvd::Entry>,
+    /// The files written so far, under temporary names until [`MeshFiles::finish`].
+    set: OutputSet,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,20 +68,23 @@ impl MeshFiles {
                 Kind::PerClass
             },
             entries: Vec::new(),
+            set: OutputSet::new(),
         })
     }
 
-    /// The files of a time series in directory `dir` (created if missing):
-    /// `classK_name_tIIII.EXT`, IIII the time's index, vertices in `space`.
+    /// The files of a time series in directory `dir` (created if missing, and removed again
+    /// if the run does not finish): `classK_name_tIIII.EXT`, IIII the time's index, vertices
+    /// in `space`.
     pub fn series(dir: &Path, format: Format, space: Space) -> Result<MeshFiles> {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create directory {}", dir.display()))?;
+        let mut set = OutputSet::new();
+        set.create_dir(dir)?;
         Ok(MeshFiles {
             output: dir.to_path_buf(),
             format,
             space,
             kind: Kind::Series,
             entries: Vec::new(),
+            set,
         })
     }
 
@@ -105,8 +112,8 @@ impl MeshFiles {
     }
 
     /// Writes the mesh (RAS world coordinates) of class `k` (0-based; its name and label in
-    /// `class`, its display colour `color`) at the `i`-th time, world time `t`, atomically, and
-    /// records it for the collection.
+    /// `class`, its display colour `color`) at the `i`-th time, world time `t`, under a
+    /// temporary name until [`MeshFiles::finish`], and records it for the collection.
     pub fn write(
         &mut self,
         i: usize,
@@ -121,7 +128,9 @@ impl MeshFiles {
             .with_label(class.label)
             .with_time(f64::from(t))
             .with_color(color);
-        write(&path, mesh, self.format, &info)?;
+        let bytes = encode(mesh, self.format, &info)
+            .with_context(|| format!("cannot encode {}", path.display()))?;
+        self.set.write(&path, &bytes)?;
         self.entries.push(pvd::Entry {
             time: t,
             part: k as u32 + 1,
@@ -135,14 +144,17 @@ impl MeshFiles {
         Ok(())
     }
 
-    /// Ends the run: for a series of VTK XML files writes `series.pvd` (ParaView collections list
-    /// VTK XML files only) and returns its path; `None` otherwise.
-    pub fn finish(self) -> Result<Option<PathBuf>> {
-        let Some(path) = self.collection() else {
-            return Ok(None);
-        };
-        write_atomically(&path, pvd::encode(&self.entries).as_bytes())?;
-        Ok(Some(path))
+    /// Ends the run: for a series of VTK XML files adds `series.pvd` (ParaView collections
+    /// list VTK XML files only), then puts every file in place at once (all or none), and
+    /// returns the collection's path; `None` where there is none.
+    pub fn finish(mut self) -> Result<Option<PathBuf>> {
+        let collection = self.collection();
+        if let Some(path) = &collection {
+            self.set
+                .write(path, pvd::encode(&self.entries).as_bytes())?;
+        }
+        self.set.commit()?;
+        Ok(collection)
     }
 
     /// The collection [`MeshFiles::finish`] writes: `series.pvd` in the directory of a series
@@ -187,12 +199,16 @@ mod tests {
         };
         series.write(0, 0.0, 0, a, [1, 2, 3], &mesh).unwrap();
         series.write(1, 0.5, 0, a, [1, 2, 3], &mesh).unwrap();
+        assert!(
+            !series_dir.join("class1_a_t0001.vtp").exists(),
+            "a file of an unfinished set is visible"
+        );
+        let pvd = series.finish().unwrap().unwrap();
         let vtp = std::fs::read(series_dir.join("class1_a_t0001.vtp")).unwrap();
         let vtp = String::from_utf8_lossy(&vtp);
         assert!(vtp.contains("Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">0.5<"));
         assert!(vtp.contains("Name=\"Label\" NumberOfTuples=\"1\" format=\"ascii\">4<"));
         assert!(vtp.contains("type=\"UInt8\" Name=\"Colors\" NumberOfComponents=\"3\""));
-        let pvd = series.finish().unwrap().unwrap();
         let text = std::fs::read_to_string(pvd).unwrap();
         assert!(text.contains(
             "timestep=\"0.5\" group=\"\" part=\"1\" name=\"a\" file=\"class1_a_t0001.vtp\""
@@ -201,5 +217,43 @@ mod tests {
         let mut ply = MeshFiles::series(&series_dir, Format::Ply, Space::Lps).unwrap();
         ply.write(0, 0.0, 0, a, [1, 2, 3], &mesh).unwrap();
         assert_eq!(ply.finish().unwrap(), None);
+        assert!(series_dir.join("class1_a_t0000.ply").exists());
+    }
+
+    #[test]
+    fn an_unfinished_run_leaves_nothing_and_an_earlier_set_untouched() {
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = tetrahedron();
+        let class = |name| ClassInfo { name, label: 1 };
+        // An earlier per-class set, then a run over it that stops after its first class (an
+        // error in the second class's extraction, a full disk): the old set stays whole.
+        let out = dir.path().join("m.ply");
+        let mut first = MeshFiles::single(&out, 2, Space::Ras).unwrap();
+        first
+            .write(0, 0.0, 0, class("a"), [1, 1, 1], &mesh)
+            .unwrap();
+        first
+            .write(0, 0.0, 1, class("b"), [1, 1, 1], &mesh)
+            .unwrap();
+        first.finish().unwrap();
+        let before: Vec<_> = ["m_class1_a.ply", "m_class2_b.ply"]
+            .map(|n| std::fs::read(dir.path().join(n)).unwrap())
+            .into();
+        let mut second = MeshFiles::single(&out, 2, Space::Lps).unwrap();
+        second
+            .write(0, 0.0, 0, class("a"), [1, 1, 1], &mesh)
+            .unwrap();
+        drop(second);
+        let after: Vec<_> = ["m_class1_a.ply", "m_class2_b.ply"]
+            .map(|n| std::fs::read(dir.path().join(n)).unwrap())
+            .into();
+        assert_eq!(before, after);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+        // A series directory the unfinished run created is removed.
+        let series = dir.path().join("series");
+        let mut s = MeshFiles::series(&series, Format::Vtp, Space::Lps).unwrap();
+        s.write(0, 0.0, 0, class("a"), [1, 1, 1], &mesh).unwrap();
+        drop(s);
+        assert!(!series.exists());
     }
 }
