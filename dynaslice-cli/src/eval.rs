@@ -361,7 +361,7 @@ fn held_out(a: HeldoutArgs) -> Result<()> {
         "lower --pixels",
         a.memory,
     )?;
-    let seq = input::read(&a.input)?;
+    let seq = input::read_as_trained(&a.input, &file)?;
     let split = a.holdout.split();
     let scores = heldout::held_out(&model, &seq, &split, a.pixels)
         .with_context(|| format!("{} on {}", a.model.display(), a.input.describe()))?;

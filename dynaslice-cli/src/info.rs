@@ -98,7 +98,7 @@ fn check_extents(args: &Args, file: &ModelFile) -> Result<()> {
     let seq = if args.input.inputs.is_empty() {
         None
     } else {
-        Some(input::read(&args.input)?)
+        Some(input::read_as_trained(&args.input, file)?)
     };
     let mut progress: Option<Progress> = None;
     let (times, warnings) = extent::check(&model, seq.as_ref(), |done, total| {

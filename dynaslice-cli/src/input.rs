@@ -2,15 +2,16 @@
 //! [`dynaslice_data::input`]; and the check of the other files a command reads itself (a model,
 //! `--like`, a reference mesh) by the readers' regular-file rule.
 
-use anyhow::{bail, Result};
+use super::times::note;
+use anyhow::{anyhow, bail, Result};
 use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::input_spec::InputSpec;
 use dynaslice_data::nesting::NestingMode;
 use dynaslice_data::nifti::HeaderSpacing;
-use dynaslice_data::reslice::ResliceOptions;
 use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::Sequence;
+use dynaslice_model::ModelFile;
 use std::path::{Path, PathBuf};
 
 use crate::options::{count, positive_f64};
@@ -27,9 +28,10 @@ pub struct InputArgs {
     /// same times (e.g. a short-axis stack and long-axis views).
     #[arg(required = true, value_name = "INPUT")]
     pub inputs: Vec<PathBuf>,
-    /// Frames to use, A:B:STEP (Python slice; e.g. 0:37:4 = every 4th of 37).
-    #[arg(long, default_value = "0:", value_name = "A:B:STEP")]
-    pub frames: FrameRange,
+    /// Frames to use, A:B:STEP (Python slice; e.g. 0:37:4 = every 4th of 37) [default: 0:, or
+    /// as the model was trained where a command takes a model]
+    #[arg(long, value_name = "A:B:STEP")]
+    pub frames: Option<FrameRange>,
     /// Label-name table ("<label> <name>" per line) for inputs that carry label numbers only.
     #[arg(long, value_name = "FILE")]
     pub label_names: Option<PathBuf>,
@@ -38,23 +40,25 @@ pub struct InputArgs {
     /// voxel axis, the rest unobserved (a few slices drawn in Slicer or ITK-SNAP); `reslice`: the
     /// paper's protocol for dense segmentations; `auto`: slices for 3 slices or fewer or slices
     /// at least 2× thicker than the pixels, sparse for sparsely drawn maps, reslice otherwise.
-    #[arg(long, default_value_t = PlaneMode::Auto, value_name = "auto|slices|reslice|sparse")]
-    pub planes: PlaneMode,
-    /// Sparsely drawn label maps: the voxel axes drawn on (`auto` detects them; `k`, `i,k`, …).
-    #[arg(long, default_value_t = SparseAxes::Detect, value_name = "auto|AXES")]
-    pub drawn_axes: SparseAxes,
+    /// [default: auto]
+    #[arg(long, value_name = "auto|slices|reslice|sparse")]
+    pub planes: Option<PlaneMode>,
+    /// Sparsely drawn label maps: the voxel axes drawn on (`auto` detects them; `k`, `i,k`, …)
+    /// [default: auto]
+    #[arg(long, value_name = "auto|AXES")]
+    pub drawn_axes: Option<SparseAxes>,
     /// RT Structure Sets: `file` takes each ROI as contoured on every contour plane of its file
     /// (absent where it has no contour); `own` only between its own first and last contour.
-    #[arg(long, default_value_t = RoiExtent::File, value_name = "file|own")]
-    pub roi_extent: RoiExtent,
-    /// Label maps: planes rotated about the volume's z axis through the labelled region's centre.
-    #[arg(long, default_value_t = ResliceOptions::default().rotated,
-          value_parser = count(0, MAX_ROTATED_PLANES))]
-    pub rotated_planes: usize,
-    /// Label maps: use every k-th axial slice of the labelled range (0: none).
-    #[arg(long, default_value_t = ResliceOptions::default().axial_step,
-          value_parser = count(0, usize::MAX))]
-    pub axial_step: usize,
+    /// [default: file]
+    #[arg(long, value_name = "file|own")]
+    pub roi_extent: Option<RoiExtent>,
+    /// Label maps: planes rotated about the volume's z axis through the labelled region's centre
+    /// [default: 20]
+    #[arg(long, value_parser = count(0, MAX_ROTATED_PLANES))]
+    pub rotated_planes: Option<usize>,
+    /// Label maps: use every k-th axial slice of the labelled range (0: none) [default: 2]
+    #[arg(long, value_parser = count(0, usize::MAX))]
+    pub axial_step: Option<usize>,
     /// Label maps: label values to reconstruct, one class each (default: every nonzero label).
     #[arg(long, value_delimiter = ',')]
     pub labels: Option<Vec<i32>>,
@@ -65,15 +69,15 @@ pub struct InputArgs {
     /// Classes drawn one inside another (an endocardium inside its epicardium, a GTV inside
     /// its organ): `auto` finds them from the contours and trains the outer as its region minus
     /// the inner's, recomposed in volumes and RT Structure Sets; `off` trains every class as
-    /// drawn; `INNER:OUTER,…` (labels) names the pairs.
-    #[arg(long, default_value_t = NestingMode::Auto, value_name = "auto|off|INNER:OUTER,…")]
-    pub nesting: NestingMode,
+    /// drawn; `INNER:OUTER,…` (labels) names the pairs. [default: auto]
+    #[arg(long, value_name = "auto|off|INNER:OUTER,…")]
+    pub nesting: Option<NestingMode>,
     /// NIfTI label maps: the voxel spacing where the header disagrees with itself. `auto`: the
     /// sform where sform_code > 0, else the qform (nibabel's rule), warning where the sform's
     /// spacing and pixdim differ; `sform`; `qform`; `pixdim`: the sform's orientation and
-    /// origin with pixdim's spacing.
-    #[arg(long, default_value_t = HeaderSpacing::Auto, value_name = "auto|sform|qform|pixdim")]
-    pub header_spacing: HeaderSpacing,
+    /// origin with pixdim's spacing. [default: auto]
+    #[arg(long, value_name = "auto|sform|qform|pixdim")]
+    pub header_spacing: Option<HeaderSpacing>,
 }
 
 impl InputArgs {
@@ -82,28 +86,65 @@ impl InputArgs {
         self.spec().describe()
     }
 
-    /// These options as the one input specification the front ends share.
+    /// These options as the one input specification the front ends share: an option not given
+    /// is `None` (the reader's default, or the model's record: [`InputArgs::spec_as_trained`]).
     pub fn spec(&self) -> InputSpec {
         InputSpec {
             inputs: self.inputs.clone(),
-            frames: Some(self.frames),
+            frames: self.frames,
             label_names: self.label_names.clone(),
-            planes: Some(self.planes),
-            drawn_axes: Some(self.drawn_axes),
-            roi_extent: Some(self.roi_extent),
-            rotated_planes: Some(self.rotated_planes),
-            axial_step: Some(self.axial_step),
+            planes: self.planes,
+            drawn_axes: self.drawn_axes,
+            roi_extent: self.roi_extent,
+            rotated_planes: self.rotated_planes,
+            axial_step: self.axial_step,
             labels: self.labels.clone(),
             pixel: self.pixel,
-            nesting: Some(self.nesting.clone()),
-            header_spacing: Some(self.header_spacing),
+            nesting: self.nesting.clone(),
+            header_spacing: self.header_spacing,
         }
+    }
+
+    /// [`InputArgs::spec`] with every option not given taken from how `file`'s model read its
+    /// input (its run record's `frames` and `reading`), so that `info MODEL INPUT` reads the
+    /// input as `train` did (`--labels`, `--planes`, …) without the flags given again; a note
+    /// names what was taken.
+    pub fn spec_as_trained(&self, file: &ModelFile) -> Result<InputSpec> {
+        let record = file.record();
+        let mut spec = self.spec();
+        let mut taken = Vec::new();
+        if spec.frames.is_none() {
+            if let Some(frames) = &record.frames {
+                spec.frames = Some(frames.parse().map_err(|e| {
+                    anyhow!("{}: recorded frames {frames:?}: {e}", file.path().display())
+                })?);
+                taken.push(format!("frames={frames}"));
+            }
+        }
+        if let Some(reading) = &record.reading {
+            let before = spec.clone();
+            spec = spec
+                .with_reading(reading)
+                .map_err(|e| anyhow!("{}: {e}", file.path().display()))?;
+            if spec != before {
+                taken.push(reading.clone());
+            }
+        }
+        if !taken.is_empty() {
+            note(&format!(
+                "reading {} as {} was trained ({}); give the options to read it otherwise",
+                spec.describe(),
+                file.path().display(),
+                taken.join("; ")
+            ));
+        }
+        Ok(spec)
     }
 }
 
-/// Reads the inputs and keeps the selected frames.
-pub fn read(args: &InputArgs) -> Result<Sequence> {
-    Ok(args.spec().read()?)
+/// Reads the inputs of `file`'s model as it was trained on them ([`InputArgs::spec_as_trained`]).
+pub fn read_as_trained(args: &InputArgs, file: &ModelFile) -> Result<Sequence> {
+    Ok(args.spec_as_trained(file)?.read()?)
 }
 
 /// `path` as an input: it exists and is a regular file (a FIFO would block the open, a device
@@ -113,5 +154,31 @@ pub fn regular_file(what: &str, path: &Path) -> Result<()> {
     match dynaslice_sequence::input_file::regular_file(path) {
         Ok(_) => Ok(()),
         Err(e) => bail!("cannot read {what} {}: {}", path.display(), e.kind),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::Cli;
+    use clap::CommandFactory;
+    use dynaslice_data::reslice::ResliceOptions;
+
+    /// The defaults the help states are the reader's.
+    #[test]
+    fn the_help_states_the_readers_defaults() {
+        let cli = Cli::command();
+        let train = cli.find_subcommand("train").unwrap();
+        let help = |name: &str| {
+            let arg = train.get_arguments().find(|a| a.get_id() == name).unwrap();
+            arg.get_help().unwrap().to_string()
+        };
+        let d = ResliceOptions::default();
+        assert!(help("rotated_planes").ends_with(&format!("[default: {}]", d.rotated)));
+        assert!(help("axial_step").ends_with(&format!("[default: {}]", d.axial_step)));
+        let options = dynaslice_data::input::InputOptions::default();
+        assert!(help("planes").ends_with(&format!("[default: {}]", options.planes)));
+        assert!(help("drawn_axes").ends_with(&format!("[default: {}]", options.sparse_axes)));
+        assert!(help("roi_extent").ends_with(&format!("[default: {}]", options.roi_extent)));
+        assert!(help("header_spacing").ends_with(&format!("[default: {}]", options.header_spacing)));
     }
 }

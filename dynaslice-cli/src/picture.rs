@@ -247,7 +247,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
-    let seq = input::read(&a.input)?;
+    let seq = input::read_as_trained(&a.input, &file)?;
     let frames = seq.frames();
     let Some(frame) = frames.get(a.frame) else {
         bail!(

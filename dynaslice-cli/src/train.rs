@@ -200,6 +200,7 @@ pub fn run(a: Args) -> Result<()> {
     let record = InputRecord {
         description: input.describe(),
         frames: input.frames().to_string(),
+        reading: input.reading(),
         space,
         units,
     };

@@ -79,3 +79,51 @@ fn info_warns_of_a_class_far_past_its_contours() {
         "{stdout}"
     );
 }
+
+/// The README's first two commands: a model trained on some labels of a label map, then `info`
+/// given the same map without `--labels`. The model records how its input was read, and `info`
+/// reads it the same way, with a note saying so; options given again win.
+#[test]
+fn info_reads_the_input_as_the_model_was_trained() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("two.dsm"),
+        dynaslice_test_support::fixtures::two_organ_model(false),
+    )
+    .unwrap();
+    // A two-label map to train on.
+    succeeded(&run(
+        d,
+        &["labels", "two.dsm", "--spacing", "4", "-o", "seg.nii.gz"],
+    ));
+    succeeded(&run(
+        d,
+        &[
+            "train",
+            "seg.nii.gz",
+            "--labels",
+            "5",
+            "--steps",
+            "2",
+            "--widths",
+            "8,8",
+            "--threads",
+            "1",
+            "-o",
+            "one.dsm",
+        ],
+    ));
+    let out = run(d, &["info", "one.dsm", "seg.nii.gz"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("note: reading seg.nii.gz as one.dsm was trained") && err.contains("labels=5"),
+        "{err}"
+    );
+    let stdout = succeeded(&out);
+    assert!(stdout.contains("reading = labels=5"), "{stdout}");
+    // Given again otherwise, the options win: both labels do not fit the one-class model.
+    let out = run(d, &["info", "one.dsm", "seg.nii.gz", "--labels", "1,5"]);
+    assert!(!out.status.success());
+}

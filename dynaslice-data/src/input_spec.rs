@@ -93,8 +93,146 @@ impl InputSpec {
             .map_err(|e| e.in_file(std::path::Path::new(&self.describe())))
     }
 
+    /// How this spec reads its inputs, beyond the inputs and frames: every option it sets, by
+    /// the command line's flag names (`labels=1,2,3; planes=sparse`), `None` where it sets none.
+    /// A model records it ([`InputSpec::with_reading`] reads it back), so that a command given
+    /// the input again reads it as training did.
+    pub fn reading(&self) -> Option<String> {
+        let mut entries: Vec<String> = Vec::new();
+        let mut add = |key: &str, value: Option<String>| {
+            if let Some(v) = value {
+                entries.push(format!("{key}={v}"));
+            }
+        };
+        add(
+            "label-names",
+            self.label_names.as_ref().map(|p| p.display().to_string()),
+        );
+        add("planes", self.planes.map(|v| v.to_string()));
+        add("drawn-axes", self.drawn_axes.map(|v| v.to_string()));
+        add("roi-extent", self.roi_extent.map(|v| v.to_string()));
+        add("rotated-planes", self.rotated_planes.map(|v| v.to_string()));
+        add("axial-step", self.axial_step.map(|v| v.to_string()));
+        add(
+            "labels",
+            self.labels
+                .as_ref()
+                .map(|l| l.iter().map(i32::to_string).collect::<Vec<_>>().join(",")),
+        );
+        add("pixel", self.pixel.map(|v| v.to_string()));
+        add("nesting", self.nesting.as_ref().map(|v| v.to_string()));
+        add("header-spacing", self.header_spacing.map(|v| v.to_string()));
+        (!entries.is_empty()).then(|| entries.join("; "))
+    }
+
+    /// This spec with every option it leaves unset taken from `reading` ([`InputSpec::reading`]'s
+    /// text): what the user gives wins, what they leave out is read as the model's training
+    /// read it. An entry that does not parse is an error naming it.
+    pub fn with_reading(mut self, reading: &str) -> std::result::Result<InputSpec, String> {
+        fn parse<T: std::str::FromStr>(key: &str, value: &str) -> std::result::Result<T, String>
+        where
+            T::Err: std::fmt::Display,
+        {
+            value
+                .parse()
+                .map_err(|e| format!("recorded {key}={value}: {e}"))
+        }
+        for entry in reading.split("; ").filter(|e| !e.trim().is_empty()) {
+            let (key, value) = entry
+                .split_once('=')
+                .ok_or_else(|| format!("recorded reading {entry:?} is not KEY=VALUE"))?;
+            let (key, value) = (key.trim(), value.trim());
+            match key {
+                "label-names" => {
+                    self.label_names.get_or_insert_with(|| PathBuf::from(value));
+                }
+                "planes" if self.planes.is_none() => self.planes = Some(parse(key, value)?),
+                "drawn-axes" if self.drawn_axes.is_none() => {
+                    self.drawn_axes = Some(parse(key, value)?)
+                }
+                "roi-extent" if self.roi_extent.is_none() => {
+                    self.roi_extent = Some(parse(key, value)?)
+                }
+                "rotated-planes" if self.rotated_planes.is_none() => {
+                    self.rotated_planes = Some(parse(key, value)?)
+                }
+                "axial-step" if self.axial_step.is_none() => {
+                    self.axial_step = Some(parse(key, value)?)
+                }
+                "labels" if self.labels.is_none() => {
+                    self.labels = Some(
+                        value
+                            .split(',')
+                            .map(|l| parse(key, l.trim()))
+                            .collect::<std::result::Result<_, _>>()?,
+                    )
+                }
+                "pixel" if self.pixel.is_none() => self.pixel = Some(parse(key, value)?),
+                "nesting" if self.nesting.is_none() => self.nesting = Some(parse(key, value)?),
+                "header-spacing" if self.header_spacing.is_none() => {
+                    self.header_spacing = Some(parse(key, value)?)
+                }
+                "planes" | "drawn-axes" | "roi-extent" | "rotated-planes" | "axial-step"
+                | "labels" | "pixel" | "nesting" | "header-spacing" => {}
+                _ => return Err(format!("recorded reading {key:?} is not an input option")),
+            }
+        }
+        Ok(self)
+    }
+
     /// The frame and units of the inputs' coordinates ([`input::space_of`]).
     pub fn space(&self) -> Result<(Space, Units)> {
         input::space_of(&self.inputs)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reading_round_trips_and_what_is_given_wins() {
+        let trained = InputSpec {
+            inputs: vec!["seg.nii.gz".into()],
+            labels: Some(vec![1, 2, 3]),
+            planes: Some(PlaneMode::Sparse),
+            drawn_axes: Some("i,k".parse().unwrap()),
+            roi_extent: Some(RoiExtent::Own),
+            rotated_planes: Some(8),
+            axial_step: Some(2),
+            pixel: Some(0.75),
+            nesting: Some("2:1".parse().unwrap()),
+            header_spacing: Some(HeaderSpacing::Pixdim),
+            label_names: Some("names.txt".into()),
+            ..InputSpec::default()
+        };
+        let text = trained.reading().unwrap();
+        assert!(
+            text.starts_with("label-names=names.txt; planes=sparse"),
+            "{text}"
+        );
+        let again = InputSpec {
+            inputs: vec!["seg.nii.gz".into()],
+            ..InputSpec::default()
+        }
+        .with_reading(&text)
+        .unwrap();
+        assert_eq!(again, trained);
+        // What the user gives wins over the record.
+        let given = InputSpec {
+            labels: Some(vec![4]),
+            ..InputSpec::default()
+        }
+        .with_reading(&text)
+        .unwrap();
+        assert_eq!(given.labels, Some(vec![4]));
+        assert_eq!(given.planes, Some(PlaneMode::Sparse));
+        assert_eq!(InputSpec::default().reading(), None);
+        let e = InputSpec::default()
+            .with_reading("planes=flat")
+            .unwrap_err();
+        assert!(e.contains("recorded planes=flat"), "{e}");
+        let e = InputSpec::default().with_reading("colour=red").unwrap_err();
+        assert!(e.contains("not an input option"), "{e}");
     }
 }

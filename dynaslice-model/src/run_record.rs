@@ -71,6 +71,10 @@ pub struct RunRecord {
     pub input: Option<String>,
     /// `frames`: the timesteps kept (`A:B:STEP`).
     pub frames: Option<String>,
+    /// `reading`: the input options training read its input with, by flag name
+    /// (`labels=1,2,3; planes=sparse`: dynaslice-data's `InputSpec::reading`); commands given
+    /// the input again read it the same way.
+    pub reading: Option<String>,
     /// `space`: the patient frame of the input's coordinates, which outputs default to.
     pub space: Option<Space>,
     /// `units`: the input's length unit.
@@ -381,6 +385,7 @@ fields! {
     trainer = "trainer",
     input = "input",
     frames = "frames",
+    reading = "reading",
     space = "space",
     units = "units",
     nesting = "nesting",
@@ -516,7 +521,7 @@ mod tests {
 
     /// Metadata as the trainer writes it, every key present.
     const FULL: &str = "trainer = dynaslice 0.1.0\ninput = a.nii.gz + b.nii.gz\nframes = 0:\n\
-        space = RAS\nunits = mm\nnesting = 2:1 -3:2\nwidths = [256, 256, 256]\nsteps = 3000\nseed = 7\nthreads = 2\n\
+        reading = labels=1,2,3; planes=sparse\nspace = RAS\nunits = mm\nnesting = 2:1 -3:2\nwidths = [256, 256, 256]\nsteps = 3000\nseed = 7\nthreads = 2\n\
         omega_0 = 20\noffset = 0.2\nomega_t_max = inf\nlr = 0.0001 -> 0.000001\n\
         warmup_steps = 0\nlambda_orientation = 0.1\nlambda_plane = 1\nlambda_regulariser = 0.05\n\
         alpha = 100\ntemporal_factor = 0.5\nsteps_done = 3000\nplanned_steps = 2871\n\

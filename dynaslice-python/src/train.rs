@@ -178,6 +178,7 @@ pub fn train(
     let record = InputRecord {
         description: input.describe(),
         frames: input.frames().to_string(),
+        reading: input.reading(),
         space: space.0,
         units: space.1,
     };

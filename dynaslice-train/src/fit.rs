@@ -87,6 +87,8 @@ pub struct InputRecord {
     pub description: String,
     /// The frames kept (`A:B:STEP`).
     pub frames: String,
+    /// The input options it was read with (dynaslice-data's `InputSpec::reading`), if any.
+    pub reading: Option<String>,
     /// The patient frame of the inputs' coordinates, which outputs default to.
     pub space: Space,
     /// The inputs' length unit.
@@ -94,11 +96,12 @@ pub struct InputRecord {
 }
 
 impl InputRecord {
-    /// The record's `input`, `frames`, `space` and `units`.
+    /// The record's `input`, `frames`, `reading`, `space` and `units`.
     fn record(&self) -> RunRecord {
         RunRecord {
             input: Some(self.description.clone()),
             frames: Some(self.frames.clone()),
+            reading: self.reading.clone(),
             space: Some(self.space),
             units: Some(self.units),
             ..RunRecord::default()

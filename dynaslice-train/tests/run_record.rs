@@ -34,6 +34,7 @@ fn the_trainers_metadata_is_a_run_record() {
     let input = InputRecord {
         description: "chambers + more".into(),
         frames: "0:4:2".into(),
+        reading: Some("labels=1,2; planes=slices".into()),
         space: Space::Lps,
         units: Units::Millimetres,
     };
@@ -48,8 +49,8 @@ fn the_trainers_metadata_is_a_run_record() {
     );
     assert!(record.other.is_empty(), "unknown lines: {:?}", record.other);
     for key in RunRecord::KEYS {
-        // A run without a time budget plans no schedule.
-        let absent = *key == "planned_steps";
+        // A run without a time budget plans no schedule; these classes are not nested.
+        let absent = matches!(*key, "planned_steps" | "nesting");
         assert_eq!(
             text.lines().any(|l| l.starts_with(&format!("{key} = "))),
             !absent,
@@ -58,6 +59,7 @@ fn the_trainers_metadata_is_a_run_record() {
     }
     assert_eq!(record.input.as_deref(), Some("chambers + more"));
     assert_eq!(record.frames.as_deref(), Some("0:4:2"));
+    assert_eq!(record.reading.as_deref(), Some("labels=1,2; planes=slices"));
     assert_eq!(record.space, Some(Space::Lps));
     assert_eq!(record.units, Some(Units::Millimetres));
     assert_eq!(record.widths, Some(vec![8, 8]));

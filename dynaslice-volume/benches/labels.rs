@@ -80,6 +80,7 @@ fn trained_model(a: &Args) -> Result<ModelBytes> {
     let input = InputRecord {
         description: "synth chambers (labels bench)".into(),
         frames: "0:".into(),
+        reading: None,
         space: Space::Ras,
         units: Units::Plain,
     };

@@ -119,6 +119,7 @@ pub fn fit(
     let record = InputRecord {
         description: input.to_string(),
         frames: "0:".into(),
+        reading: None,
         space: Space::Ras,
         units: Units::Plain,
     };
