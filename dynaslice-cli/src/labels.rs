@@ -9,7 +9,7 @@ use super::options::{
     count, f32_in, finite_f64, positive_f64, time_series, MAX_SAFETY, MAX_THREADS, MAX_TIMES,
 };
 use super::progress::Progress;
-use super::times::note;
+use super::times::{note, times_option};
 use anyhow::{bail, Context, Result};
 use dynaslice_core::Model;
 use dynaslice_data::nifti::read_geometry;
@@ -115,6 +115,15 @@ pub fn run(a: Args) -> Result<()> {
         // (and checked below) before anything is allocated for it.
         Some(reference) => {
             regular_file("reference", reference)?;
+            let name = reference.to_string_lossy().to_ascii_lowercase();
+            if !(name.ends_with(".nii") || name.ends_with(".nii.gz")) {
+                bail!(
+                    "--like {}: not a NIfTI image (.nii, .nii.gz), so it has no voxel grid to \
+                     label on; give --bounds and --spacing (or neither: the model's domain at \
+                     128 voxels along its longest side), or a NIfTI image of the same subject",
+                    reference.display()
+                );
+            }
             let mut grid = VoxelGrid::like(&read_geometry(reference)?);
             if let Some(series) = &a.times {
                 grid.times = series.times();
@@ -142,15 +151,16 @@ pub fn run(a: Args) -> Result<()> {
     // reference with more or longer frames) is refused, never extrapolated.
     let from_like = a.like.is_some() && a.times.is_none();
     let option = if from_like {
-        "--like's frame time"
+        "--like's frame time".to_string()
     } else {
-        "--times"
+        times_option(a.times.as_ref())
     };
     if !file.is_static() {
-        file.check_times(option, grid.times.iter().copied())
+        file.check_times(&option, grid.times.iter().copied())
             .map_err(|e| match from_like {
                 true => anyhow::anyhow!(
-                    "{e:#}; --like's frame f is at toffset + f × pixdim[4] of its header: give                      --times A:B:N for other times on its grid"
+                    "{e:#}; --like's frame f is at toffset + f × pixdim[4] of its header: give \
+                     --times (a list or A:B:N) for other times on its grid"
                 ),
                 false => e,
             })?;

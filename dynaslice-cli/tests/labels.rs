@@ -556,3 +556,29 @@ fn errors_name_the_file_and_the_problem() {
     }
     assert!(!Path::new(out).exists());
 }
+
+/// `--like` takes an image's grid: a `.csl` or JSON of cross-sections has none, and the message
+/// says what to give instead (not a NIfTI parse error); nothing is written.
+#[test]
+fn like_without_a_grid_says_what_to_give_instead() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_model(dir.path());
+    let csl = dir.path().join("eight_15.csl");
+    std::fs::write(&csl, "1\n").unwrap();
+    let out = dir.path().join("l.nii.gz");
+    let o = dynaslice(&[
+        "labels",
+        &model,
+        "--like",
+        csl.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("eight_15.csl: not a NIfTI image") && err.contains("--bounds and --spacing"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

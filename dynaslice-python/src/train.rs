@@ -53,6 +53,36 @@ where
         .transpose()
 }
 
+/// A list keyword as a Python user writes it: a list (`[1, 2, 3]`) or the command line's text
+/// (`"1,2,3"`).
+#[derive(FromPyObject)]
+pub enum ListOrText<T> {
+    /// A Python list or tuple.
+    List(Vec<T>),
+    /// Comma-separated, as the command line's flag takes it.
+    Text(String),
+}
+
+impl<T: FromStr> ListOrText<T>
+where
+    T::Err: std::fmt::Display,
+{
+    /// The values; a text's items parsed as the flag parses them, an error naming `name`.
+    fn values(self, name: &str) -> PyResult<Vec<T>> {
+        match self {
+            ListOrText::List(v) => Ok(v),
+            ListOrText::Text(s) => s
+                .split(',')
+                .map(|item| {
+                    item.trim()
+                        .parse()
+                        .map_err(|e| PyValueError::new_err(format!("{name} {s:?}: {item:?}: {e}")))
+                })
+                .collect(),
+        }
+    }
+}
+
 /// Trains a model on `inputs` as `dynaslice train INPUTS -o OUTPUT` does, writes it to
 /// `output` with its loss log and curve beside it (and, while it runs, the checkpoint
 /// `OUTPUT.ckpt`, removed when it finishes) and returns it. Every keyword is the command line's
@@ -89,7 +119,7 @@ pub fn train(
     roi_extent: Option<String>,
     rotated_planes: Option<usize>,
     axial_step: Option<usize>,
-    labels: Option<Vec<i32>>,
+    labels: Option<ListOrText<i32>>,
     pixel: Option<f64>,
     nesting: Option<String>,
     header_spacing: Option<String>,
@@ -97,7 +127,7 @@ pub fn train(
     force: bool,
     no_temporal_control: bool,
     no_orientation: bool,
-    widths: Option<Vec<u32>>,
+    widths: Option<ListOrText<u32>>,
     omega0: Option<f32>,
     init_offset: Option<f32>,
     temporal_factor: Option<f32>,
@@ -112,9 +142,14 @@ pub fn train(
     space_samples: Option<usize>,
     budget_classes: Option<usize>,
     min_class_samples: Option<usize>,
-    class_weights: Option<Vec<f32>>,
+    class_weights: Option<ListOrText<f32>>,
     checkpoint_minutes: Option<f64>,
 ) -> PyResult<PyModel> {
+    let labels = labels.map(|l| l.values("labels")).transpose()?;
+    let widths = widths.map(|w| w.values("widths")).transpose()?;
+    let class_weights = class_weights
+        .map(|w| w.values("class_weights"))
+        .transpose()?;
     let spec = TrainSpec {
         steps,
         minutes,

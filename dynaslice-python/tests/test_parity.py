@@ -91,3 +91,16 @@ def test_the_same_bad_option_gives_the_same_words_before_any_work(tmp_path, key,
         dynaslice.train(missing, tmp_path / "m.dsm", progress=False, **{key: value})
     assert str(e.value).startswith(key + ": ") and str(e.value).endswith(words), str(e.value)
     assert not (tmp_path / "m.dsm").exists()
+
+
+def test_list_keywords_take_the_command_lines_text(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write_sphere_sections(tmp_path / "s.json", frames=3)
+    as_lists = dynaslice.train("s.json", "lists.dsm", progress=False, **OPTIONS)
+    text = dict(OPTIONS, widths="32,24", class_weights="1.0, 2.5")
+    as_text = dynaslice.train("s.json", "text.dsm", progress=False, **text)
+    assert as_text.to_bytes() == as_lists.to_bytes()
+    with pytest.raises(ValueError) as e:
+        dynaslice.train("s.json", "bad.dsm", progress=False, labels="1,x")
+    assert str(e.value).startswith('labels "1,x": "x"'), str(e.value)
+    assert not (tmp_path / "bad.dsm").exists()
