@@ -188,8 +188,13 @@ pub fn run(a: Args) -> Result<()> {
         groups: groups.clone(),
     };
     // Each time (and the ITV) contours every plane: tens of seconds on a loaded machine.
+    // With --itv the count is of passes (the ITV's union, then each phase), not of phases.
     let progress = Progress::new(
-        "contouring: phase",
+        if a.itv {
+            "contouring the ITV, then each phase: pass"
+        } else {
+            "contouring: phase"
+        },
         (times.len() + usize::from(a.itv)) as u64,
     );
     let itv = if a.itv {
