@@ -271,12 +271,19 @@ fn write_itv(
     let model = file.model();
     let mut set = OutputSet::new();
     set.create_dir(dir)?;
-    let masks = itv_masks(&model, grid, times)?;
+    // Labels at every time, then one meshing of the union: a minute or more on a busy machine.
+    let progress = Progress::new(
+        "ITV: each time's labels, then the union's surfaces: step",
+        times.len() as u64 + 1,
+    );
+    let masks = itv_masks(&model, grid, times, || progress.inc())?;
     let options = dynaslice_mesh::Options {
         resolution,
         ..dynaslice_mesh::Options::default()
     };
     let meshes = itv_meshes(&model, model.domain().bounds(), times, &options)?;
+    progress.inc();
+    progress.finish();
     for (k, c) in m.classes.iter().enumerate() {
         let (volume_path, mesh_path) = &files[k];
         let header = VolumeHeader {

@@ -12,8 +12,13 @@ use dynaslice_mesh::{self as mesh, LevelSets, Mesh, Sampling, Source, Surfaces};
 use dynaslice_volume::{label_indices, VoxelGrid};
 
 /// Per class (model order), whether each voxel of `grid` (x fastest) is labelled that class at
-/// any of `times`.
-pub fn itv_masks(model: &Model, grid: &VoxelGrid, times: &[f64]) -> Result<Vec<Vec<bool>>> {
+/// any of `times`; `done` is called after each time (a front end's progress).
+pub fn itv_masks(
+    model: &Model,
+    grid: &VoxelGrid,
+    times: &[f64],
+    mut done: impl FnMut(),
+) -> Result<Vec<Vec<bool>>> {
     ensure!(!times.is_empty(), "an ITV needs at least one time");
     let n = grid.voxels_per_frame();
     let mut masks = vec![vec![false; n]; model.num_classes()];
@@ -25,6 +30,7 @@ pub fn itv_masks(model: &Model, grid: &VoxelGrid, times: &[f64]) -> Result<Vec<V
                 masks[l as usize - 1][i] = true;
             }
         }
+        done();
     }
     Ok(masks)
 }
@@ -153,7 +159,9 @@ mod tests {
             vec![0.0],
         )
         .unwrap();
-        let masks = itv_masks(&model, &grid, &times).unwrap();
+        let mut calls = 0;
+        let masks = itv_masks(&model, &grid, &times, || calls += 1).unwrap();
+        assert_eq!(calls, times.len());
         let counted = masks[0].iter().filter(|&&m| m).count() as f64 * grid.voxel_volume();
         assert!((counted - want).abs() < 0.02 * want, "{counted} vs {want}");
         let options = mesh::Options {
