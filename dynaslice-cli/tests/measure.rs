@@ -4,6 +4,7 @@
 //! image decodes, no console message, a screenshot is written).
 
 use dynaslice_data::nifti::read_volume;
+use dynaslice_test_support::browser::{browse, chromium};
 use dynaslice_test_support::fixtures::succeeded;
 use dynaslice_test_support::spheres::{self, Sphere, SPHERES_DOMAIN};
 use serde_json::Value;
@@ -223,50 +224,6 @@ fn plain_inputs_say_so_and_recorded_lps_inputs_are_lps() {
     assert!(String::from_utf8_lossy(&outside.stderr).contains("outside the model's time range"));
 }
 
-/// Headless Chromium, or `None` (with a notice) where it is not installed; CI, which installs
-/// it, sets DYNASLICE_REQUIRE_PYTHON, and there a missing browser fails the test.
-fn chromium() -> Option<&'static str> {
-    let found = ["chromium", "chromium-browser"].into_iter().find(|c| {
-        Command::new(c)
-            .arg("--version")
-            .output()
-            .is_ok_and(|o| o.status.success())
-    });
-    if found.is_none() {
-        assert!(
-            std::env::var_os("DYNASLICE_REQUIRE_PYTHON").is_none(),
-            "chromium is not installed but DYNASLICE_REQUIRE_PYTHON is set"
-        );
-        println!("SKIPPED: chromium is not installed (apt-get install chromium)");
-    }
-    found
-}
-
-/// Chromium headless on `page` with `args`, isolated (a fresh profile, no network services);
-/// returns its output (stdout: e.g. the DOM; stderr: its log with console messages).
-fn browse(browser: &str, page: &Path, args: &[&str]) -> Output {
-    let profile = tempfile::tempdir().unwrap();
-    let url = format!("file://{}", page.canonicalize().unwrap().display());
-    Command::new(browser)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--enable-logging=stderr",
-            "--v=0",
-        ])
-        .arg(format!("--user-data-dir={}", profile.path().display()))
-        .args(args)
-        .arg(url)
-        .output()
-        .unwrap()
-}
-
 #[test]
 fn report_is_self_contained_matches_the_csv_and_opens_in_chromium() {
     let dir = tempfile::tempdir().unwrap();
@@ -320,7 +277,7 @@ fn report_is_self_contained_matches_the_csv_and_opens_in_chromium() {
     }
 
     let Some(browser) = chromium() else { return };
-    let dom = browse(browser, &html_path, &["--dump-dom"]);
+    let dom = browse(browser, &html_path, &["--disable-gpu", "--dump-dom"]);
     assert!(
         dom.status.success(),
         "{}",
@@ -344,6 +301,7 @@ fn report_is_self_contained_matches_the_csv_and_opens_in_chromium() {
         browser,
         &html_path,
         &[
+            "--disable-gpu",
             &format!("--screenshot={}", shot.display()),
             "--window-size=1200,1600",
         ],

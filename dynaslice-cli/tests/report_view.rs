@@ -8,6 +8,7 @@
 mod common;
 
 use common::succeeded;
+use dynaslice_test_support::browser::{browse, chromium};
 use dynaslice_test_support::spheres::{self, Sphere};
 use std::path::Path;
 use std::process::{Command, Output};
@@ -16,50 +17,20 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-/// Headless Chromium, or `None` (with a notice) where it is not installed.
-fn chromium() -> Option<&'static str> {
-    let found = ["chromium", "chromium-browser"].into_iter().find(|c| {
-        Command::new(c)
-            .arg("--version")
-            .output()
-            .is_ok_and(|o| o.status.success())
-    });
-    if found.is_none() {
-        assert!(
-            std::env::var_os("DYNASLICE_REQUIRE_PYTHON").is_none(),
-            "chromium is not installed but DYNASLICE_REQUIRE_PYTHON is set"
-        );
-        println!("SKIPPED: chromium is not installed (apt-get install chromium)");
-    }
-    found
-}
-
-/// Chromium headless on `page` with software WebGL at 1200 × 900, isolated (a fresh profile,
-/// no network services), dumping the DOM; stderr holds the console messages.
-fn browse(browser: &str, page: &Path) -> Output {
-    let profile = tempfile::tempdir().unwrap();
-    let url = format!("file://{}", page.canonicalize().unwrap().display());
-    Command::new(browser)
-        .args([
-            "--headless",
-            "--no-sandbox",
+/// The page in headless Chromium with software WebGL at 1200 × 900, its DOM dumped; stderr
+/// holds the console messages.
+fn browse_webgl(browser: &str, page: &Path) -> Output {
+    browse(
+        browser,
+        page,
+        &[
             // SwiftShader: WebGL without a GPU (ANGLE's software backend).
             "--use-angle=swiftshader",
             "--enable-unsafe-swiftshader",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--enable-logging=stderr",
-            "--v=0",
             "--window-size=1200,900",
             "--dump-dom",
-        ])
-        .arg(format!("--user-data-dir={}", profile.path().display()))
-        .arg(url)
-        .output()
-        .unwrap()
+        ],
+    )
 }
 
 /// Run once the page has loaded; writes its findings into `<body data-view>`.
@@ -175,7 +146,7 @@ fn interactive_view_turns_plays_and_shows_every_class() {
     let Some(browser) = chromium() else { return };
 
     // The report as it is: it loads with a silent console.
-    let plain = browse(browser, &html);
+    let plain = browse_webgl(browser, &html);
     assert!(
         plain.status.success(),
         "{}",
@@ -193,7 +164,7 @@ fn interactive_view_turns_plays_and_shows_every_class() {
         text.replace("</body>", &format!("{CHECKS}</body>")),
     )
     .unwrap();
-    let out = browse(browser, &checked);
+    let out = browse_webgl(browser, &checked);
     let dom = String::from_utf8_lossy(&out.stdout);
     let findings = dom
         .split("data-view=\"")

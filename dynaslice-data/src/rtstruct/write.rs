@@ -38,7 +38,7 @@ use dicom_object::meta::FileMetaTableBuilder;
 use dicom_object::InMemDicomObject;
 
 use super::{dicom, get_items, get_text};
-use dynaslice_output::{write_atomically, OutputSet};
+use dynaslice_output::OutputSet;
 use dynaslice_sequence::error::Result;
 
 /// SOP Class UID of RT Structure Set Storage.
@@ -331,22 +331,10 @@ pub struct StructureSet {
 /// Sequence: half of the thinnest slice spacing in use (0.5 mm).
 pub const IMAGE_PLANE_TOLERANCE_MM: f64 = 0.25;
 
-/// Writes `set` as an RT Structure Set at `path` (atomically: a complete file or none), in
-/// `template`'s patient, study and frame of reference, referencing the images of `series`.
-/// Returns the new SOP Instance UID. Errors name the file.
-pub fn write(
-    path: &Path,
-    template: &Template,
-    series: &ImageSeries,
-    set: &StructureSet,
-) -> anyhow::Result<String> {
-    let bytes = encode(template, series, set).map_err(|e| e.in_file(path))?;
-    write_atomically(path, &bytes.1)?;
-    Ok(bytes.0)
-}
-
 /// Adds `set` as an RT Structure Set at `path` to `files`, which puts it in place with the
-/// set's other files (one per time and their manifest, all or none); otherwise as [`write`].
+/// set's other files (one per time and their manifest, all or none): in `template`'s patient,
+/// study and frame of reference, referencing the images of `series`. Returns the new SOP
+/// Instance UID. Errors name the file.
 pub fn stage(
     files: &mut OutputSet,
     path: &Path,
