@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # CI for the C ABI (dynaslice-ffi): run from anywhere as `bash scripts/ci-ffi.sh`.
 #
-# 1. Installs what it needs on a fresh Debian machine (as root): gcc/g++, valgrind, python3,
-#    pkg-config, cmake, libvtk9-dev (~175 MB download), and cbindgen at the pinned version.
+# 1. Installs what it needs on a fresh Debian machine (as root): gcc/g++ (with libasan/libubsan),
+#    valgrind, python3, pkg-config, cmake, libvtk9-dev (~175 MB download), and cbindgen at the
+#    pinned version.
 # 2. Fails when include/dynaslice.h differs from a fresh cbindgen generation.
-# 3. Runs the host tests (C static/shared, valgrind, C++ threads, docs example, CMake and pkg-config
-#    install, Python), with every host tool present, so none of them may skip.
+# 3. Runs the host tests (C static/shared, valgrind, the C host built with ASan + LeakSanitizer +
+#    UBSan against the cdylib, C++ threads, docs example, CMake and pkg-config install, Python),
+#    with every host tool present, so none of them may skip.
 # 4. Installs the release build into a temporary prefix, builds the VTK example against it with
 #    find_package(dynaslice), extracts both surfaces of the sphere fixture and checks each mesh:
 #    closed, vertices on f = 0, gradients right, enclosed volume within 2% of the project's own
@@ -35,6 +37,16 @@ if [ ${#need[@]} -gt 0 ]; then
     apt-get install -y -qq --no-install-recommends "${need[@]}" >"$work/apt.log" 2>&1 ||
         { tail -n 30 "$work/apt.log"; exit 1; }
     echo "installed: ${need[*]}"
+fi
+# The sanitizer run (hosts.rs `c_host_under_sanitizers`) needs gcc's libasan and libubsan; Debian
+# ships them in libgcc-N-dev, which gcc depends on, so this only installs on an image that lacks them.
+echo 'int main(void) { return 0; }' >"$work/sanitizers.c"
+if ! gcc -fsanitize=address,undefined "$work/sanitizers.c" -o "$work/sanitizers" 2>/dev/null; then
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq --no-install-recommends "libgcc-$(gcc -dumpversion)-dev" >"$work/apt.log" 2>&1 ||
+        { tail -n 30 "$work/apt.log"; exit 1; }
+    echo "installed: libgcc-$(gcc -dumpversion)-dev (libasan, libubsan)"
 fi
 
 step "cbindgen $CBINDGEN_VERSION"

@@ -469,3 +469,108 @@ fn command_line_definition_is_consistent() {
     use clap::CommandFactory;
     dynaslice_cli::Cli::command().debug_assert();
 }
+
+/// Each kind of bad input file is refused, by the command that reads it, with a message that
+/// names that file (a manifest entry or an NRRD data file that cannot be opened: both the file
+/// and the manifest or header line that names it).
+#[test]
+fn every_bad_input_is_refused_naming_its_file() {
+    use dynaslice_data::label_volume::LabelVolume;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    common::write_sequence(d); // ball_0..2.csl, ball.cslseq
+    write_json(&d.join("in.json"), 1, |_| "ball".into(), 1.0);
+    // A valid label map, then its damaged copies.
+    let mut labels = vec![0u8; 12 * 12 * 6];
+    for k in 1..5 {
+        for j in 3..9 {
+            for i in 3..9 {
+                labels[(k * 12 + j) * 12 + i] = 1;
+            }
+        }
+    }
+    let volume = LabelVolume {
+        dims: [12, 12, 6],
+        frames: 1,
+        affine: [
+            [2.0, 0.0, 0.0, 0.0],
+            [0.0, 2.0, 0.0, 0.0],
+            [0.0, 0.0, 3.0, 0.0],
+        ],
+        frame_interval: 1.0,
+        labels: labels.iter().map(|&v| i32::from(v)).collect(),
+    };
+    dynaslice_data::nifti::write_volume(&volume, &d.join("map.nii.gz")).unwrap();
+    let gz = std::fs::read(d.join("map.nii.gz")).unwrap();
+    // Cut inside the gzip stream's first block: the header itself is incomplete.
+    std::fs::write(d.join("cut.nii.gz"), &gz[..40]).unwrap();
+    std::fs::write(d.join("tabled.nii.gz"), &gz).unwrap();
+    std::fs::write(d.join("tabled.ctbl"), "1 liver 300 0 0 255\n").unwrap();
+    // The .csl declares 4 planes and holds 5.
+    let csl = std::fs::read_to_string(d.join("ball_0.csl")).unwrap();
+    std::fs::write(d.join("count.csl"), csl.replacen("5 1", "4 1", 1)).unwrap();
+    let nrrd_head = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 12 twelve 6\nencoding: raw\n\n";
+    std::fs::write(d.join("header.nrrd"), nrrd_head).unwrap();
+    let detached = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 12 12 6\nencoding: raw\n\
+                    data file: gone.raw\n";
+    std::fs::write(d.join("detached.nhdr"), detached).unwrap();
+    std::fs::write(d.join("gap.seq"), "0 ball_0.csl\n1 absent.csl\n").unwrap();
+    let json = std::fs::read_to_string(d.join("in.json")).unwrap();
+    let wrong = json.replacen("\"u\": [1.0, 0.0, 0.0]", "\"u\": \"east\"", 1);
+    assert_ne!(wrong, json, "the JSON fixture changed shape");
+    std::fs::write(d.join("field.json"), wrong).unwrap();
+    std::fs::write(d.join("names.txt"), "1 ball\nnot-a-number spleen\n").unwrap();
+    write_model(&d.join("m.dsm"), true);
+
+    let train = |input: &str| format!("train {input} -o t.dsm --widths 8 --steps 2");
+    // (command line, what its message must hold: the damaged file, and where one names another
+    // the file and line that name it)
+    let cases: Vec<(String, Vec<&str>)> = vec![
+        (train("count.csl"), vec!["count.csl", "the header says 4"]),
+        (train("cut.nii.gz"), vec!["cut.nii.gz"]),
+        (
+            "labels m.dsm --like cut.nii.gz -o l.nii.gz".into(),
+            vec!["cut.nii.gz"],
+        ),
+        (train("header.nrrd"), vec!["header.nrrd, line 4", "sizes"]),
+        (
+            train("detached.nhdr"),
+            vec!["detached.nhdr, line 6", "gone.raw", "No such file"],
+        ),
+        (
+            train("gap.seq"),
+            vec!["gap.seq, line 2", "absent.csl", "No such file"],
+        ),
+        (train("field.json"), vec!["field.json", "planes[0].u"]),
+        (train("tabled.nii.gz"), vec!["tabled.ctbl, line 1"]),
+        (
+            train("ball.cslseq --label-names names.txt"),
+            vec!["names.txt, line 2", "not-a-number"],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (line, expected) in &cases {
+        let args = shlex::split(line).unwrap();
+        let Some(out) = run_in(d, &args, PROBE_TIMEOUT) else {
+            failures.push(format!("{line}: still running after {PROBE_TIMEOUT:?}"));
+            continue;
+        };
+        let err = String::from_utf8_lossy(&out.stderr);
+        let missing: Vec<&&str> = expected.iter().filter(|e| !err.contains(**e)).collect();
+        match out.status.code() {
+            Some(0) => failures.push(format!("{line}: succeeded\n{err}")),
+            Some(101) | None => failures.push(format!("{line}: crashed\n{err}")),
+            Some(_) if !missing.is_empty() => {
+                failures.push(format!("{line}: message lacks {missing:?}:\n{err}"))
+            }
+            Some(_) => {}
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} bad inputs:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n\n")
+    );
+}

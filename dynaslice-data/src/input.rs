@@ -240,6 +240,17 @@ fn read_manifest(path: &Path, options: &InputOptions) -> Result<Manifest> {
                 ))
             }
         }
+        // An entry that cannot be opened (absent, a folder, a device) is the manifest line's
+        // mistake: the message names the manifest, its line and the entry.
+        if let Err(e) = dynaslice_sequence::input_file::regular_file(&entry.path) {
+            return Err(DataError::new(ErrorKind::Syntax(format!(
+                "{}: {}",
+                entry.path.display(),
+                e.kind
+            )))
+            .in_file(path)
+            .at_line(entry.line));
+        }
         let mut part = read_part(&entry.path, &entry_options)?;
         let count = part.sequence.frames().len();
         if count != 1 {

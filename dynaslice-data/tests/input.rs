@@ -104,7 +104,13 @@ fn manifest_errors_name_the_manifest_line_or_the_entry() {
             "0 ball_0.csl\n1 notes.txt\n",
             "not a kind of input DynaSlice reads",
         ),
-        ("0 ball_0.csl\n1 gone.csl\n", "gone.csl"),
+        // An entry that cannot be opened: the manifest's line and the entry.
+        ("0 ball_0.csl\n1 gone.csl\n", "m.seq, line 2: "),
+        (
+            "0 ball_0.csl\n1 gone.csl\n",
+            "gone.csl: i/o error: No such file",
+        ),
+        ("0 ball_0.csl\n1 .\n", "m.seq, line 2: "),
         (
             "1 ball_0.csl\n0 ball_1.csl\n",
             "earlier than the previous entry",

@@ -796,7 +796,13 @@ fn malformed_inputs_are_named_errors() {
     )
     .unwrap();
     let msg = read_volume(&path).unwrap_err().to_string();
-    assert!(msg.contains("gone.raw"), "{msg}");
+    // Both files: the data file that is absent and the header (and its line) that names it.
+    assert!(
+        msg.contains("gone.raw")
+            && msg.contains("missing.nhdr, line ")
+            && msg.contains("No such file"),
+        "{msg}"
+    );
     let e = read_volume(&d.join("absent.nrrd")).unwrap_err();
     assert!(matches!(e.kind, ErrorKind::Io(_)) && e.to_string().contains("absent.nrrd"));
 }

@@ -11,7 +11,8 @@ use dynaslice_core::format::ModelWriter;
 use dynaslice_core::{Domain, Model, Scratch};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
 
 /// Number of reference points: not a multiple of any batch block size (64, 16, 12).
 const POINTS: usize = 77;
@@ -272,8 +273,9 @@ fn prepare(dir: &Path) -> PathBuf {
     model
 }
 
-/// Compiles tests/c/api_test.c (C11, warnings as errors) against one of the libraries.
-fn build_c_test(dir: &Path, name: &str, link: Vec<String>) -> PathBuf {
+/// Compiles tests/c/api_test.c (C11, warnings as errors, with `extra` flags) against one of the
+/// libraries.
+fn build_c_test(dir: &Path, name: &str, extra: &[&str], link: Vec<String>) -> PathBuf {
     let exe = dir.join(name);
     run(Command::new("gcc")
         .args([
@@ -285,6 +287,7 @@ fn build_c_test(dir: &Path, name: &str, link: Vec<String>) -> PathBuf {
             "-g",
             "-O1",
         ])
+        .args(extra)
         .arg(format!("-I{}", root().join("include").display()))
         .arg(format!("-I{}", dir.display()))
         .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/c/api_test.c"))
@@ -306,7 +309,7 @@ fn c_host_static_and_shared() {
     ] {
         let dir = scratch_dir(&format!("c-{name}"));
         let model = prepare(&dir);
-        let exe = build_c_test(&dir, "api_test", link);
+        let exe = build_c_test(&dir, "api_test", &[], link);
         // Natively the batch kernels are the ones Rust used: answers must match bit for bit.
         let out = run(Command::new(&exe).arg(&model).arg(&dir).arg("exact"));
         assert!(out.contains(" 0 failed"), "{out}");
@@ -321,7 +324,7 @@ fn c_host_under_valgrind() {
     let libs = lib_dir();
     let dir = scratch_dir("valgrind");
     let model = prepare(&dir);
-    let exe = build_c_test(&dir, "api_test", shared_link(&libs));
+    let exe = build_c_test(&dir, "api_test", &[], shared_link(&libs));
     let log = dir.join("valgrind.log");
     // Valgrind's CPU has no AVX-512, so the batch kernels may differ from the ones Rust used
     // natively: "approx" compares batch answers to a tolerance instead of bit for bit.
@@ -350,6 +353,112 @@ fn c_host_under_valgrind() {
         report.contains("All heap blocks were freed")
             || report.contains("definitely lost: 0 bytes"),
         "{report}"
+    );
+}
+
+/// gcc flags of the sanitizer run: AddressSanitizer (with LeakSanitizer) and
+/// UndefinedBehaviorSanitizer, every UB check fatal even without `UBSAN_OPTIONS`.
+const SANITIZE: [&str; 3] = [
+    "-fsanitize=address,undefined",
+    "-fno-sanitize-recover=all",
+    "-fno-omit-frame-pointer",
+];
+
+/// The sanitizers' run-time options: leaks checked at exit, the first report ends the process.
+const SANITIZER_ENV: [(&str, &str); 2] = [
+    ("ASAN_OPTIONS", "detect_leaks=1:abort_on_error=1"),
+    ("UBSAN_OPTIONS", "halt_on_error=1:print_stacktrace=1"),
+];
+
+/// Longest the sanitizer run may take (it takes about a second): a hang fails, it does not stall CI.
+const SANITIZER_LIMIT: Duration = Duration::from_secs(120);
+
+/// True when gcc builds and runs a program with [`SANITIZE`] (Debian's gcc brings libasan and
+/// libubsan through libgcc-N-dev); otherwise skips like [`have`], or fails under
+/// `DYNASLICE_REQUIRE_HOSTS`.
+fn have_sanitizers(test: &str) -> bool {
+    if !have("gcc", test) {
+        return false;
+    }
+    let dir = scratch_dir("sanitizer-probe");
+    let src = dir.join("probe.c");
+    std::fs::write(&src, "int main(void) { return 0; }\n").unwrap();
+    let exe = dir.join("probe");
+    let ok = Command::new("gcc")
+        .args(SANITIZE)
+        .arg(&src)
+        .arg("-o")
+        .arg(&exe)
+        .status()
+        .is_ok_and(|s| s.success())
+        && Command::new(&exe)
+            .envs(SANITIZER_ENV)
+            .status()
+            .is_ok_and(|s| s.success());
+    if !ok {
+        assert!(
+            std::env::var_os("DYNASLICE_REQUIRE_HOSTS").is_none(),
+            "{test}: gcc cannot build with {SANITIZE:?} (libasan/libubsan missing?) but \
+             DYNASLICE_REQUIRE_HOSTS is set"
+        );
+        println!("SKIPPED {test}: gcc cannot build and run a program with {SANITIZE:?}");
+    }
+    ok
+}
+
+/// The C host built with AddressSanitizer, LeakSanitizer and UndefinedBehaviorSanitizer against
+/// the cdylib. The host is the instrumented part: its own reads and writes around every call, and
+/// every malloc/free and memcpy/memset in the process (the library's too, through the
+/// sanitizer's interceptors), are checked; leaks at exit include the library's allocations. Any
+/// report, a failed check or a run over [`SANITIZER_LIMIT`] fails.
+#[test]
+fn c_host_under_sanitizers() {
+    if !have_sanitizers("sanitizer run") {
+        return;
+    }
+    let libs = lib_dir();
+    let dir = scratch_dir("sanitizers");
+    let model = prepare(&dir);
+    let exe = build_c_test(&dir, "api_test", &SANITIZE, shared_link(&libs));
+    // To files, not pipes: nothing to drain while waiting with a deadline.
+    let (out_path, err_path) = (dir.join("stdout.txt"), dir.join("stderr.txt"));
+    let start = Instant::now();
+    let mut child = Command::new(&exe)
+        .arg(&model)
+        .arg(&dir)
+        .arg("exact")
+        .envs(SANITIZER_ENV)
+        .stdout(Stdio::from(std::fs::File::create(&out_path).unwrap()))
+        .stderr(Stdio::from(std::fs::File::create(&err_path).unwrap()))
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run {}: {e}", exe.display()));
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break Some(status);
+        }
+        if start.elapsed() > SANITIZER_LIMIT {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stdout = std::fs::read_to_string(&out_path).unwrap();
+    let stderr = std::fs::read_to_string(&err_path).unwrap();
+    let status = status.unwrap_or_else(|| {
+        panic!("the sanitizer run took over {SANITIZER_LIMIT:?}:\n{stdout}\n{stderr}")
+    });
+    println!(
+        "sanitizer run: {status} in {:.2} s; {}",
+        start.elapsed().as_secs_f64(),
+        stdout.trim()
+    );
+    let report = ["AddressSanitizer", "LeakSanitizer", "runtime error:"]
+        .iter()
+        .any(|r| stderr.contains(r));
+    assert!(
+        status.success() && !report && stdout.contains(" 0 failed"),
+        "the C host under ASan/UBSan failed ({status}):\n--- stdout\n{stdout}\n--- stderr\n{stderr}"
     );
 }
 

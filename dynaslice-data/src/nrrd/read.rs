@@ -854,7 +854,9 @@ fn load(path: &Path, h: &Header, layout: &Layout, file: &[u8]) -> Result<Vec<i32
                     Some(dir) if Path::new(name).is_relative() => dir.join(name),
                     _ => PathBuf::from(name),
                 };
-                detached = input_file::read(&target, MAX_FILE_BYTES, "an NRRD data file")?;
+                // Named with the header's line too: the header may name the wrong file.
+                detached = input_file::read(&target, MAX_FILE_BYTES, "an NRRD data file")
+                    .map_err(|e| f.error("data file", e))?;
                 (&detached, target)
             }
             None => match h.data_start {
