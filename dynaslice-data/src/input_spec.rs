@@ -5,12 +5,14 @@
 use crate::drawn_slices::{PlaneMode, SparseAxes};
 use crate::frame_range::FrameRange;
 use crate::input::{self, InputOptions};
+use crate::input_kind::InputKind;
 use crate::label_table::LabelTable;
+use crate::manifest;
 use crate::nesting::{self, NestingMode};
 use crate::nifti::HeaderSpacing;
 use crate::reslice::ResliceOptions;
 use crate::rtstruct::RoiExtent;
-use dynaslice_sequence::error::Result;
+use dynaslice_sequence::error::{ErrorKind, Result};
 use dynaslice_sequence::sequence::Sequence;
 use dynaslice_sequence::space::{Space, Units};
 use std::path::PathBuf;
@@ -88,9 +90,58 @@ impl InputSpec {
     /// Reads the inputs into one sequence, nested classes made disjoint as
     /// [`InputSpec::nesting`] says ([`nesting::apply`]).
     pub fn read(&self) -> Result<Sequence> {
+        self.check_options_apply()?;
         let seq = input::read(&self.inputs, &self.options()?)?;
         nesting::apply(seq, &self.nesting.clone().unwrap_or_default())
             .map_err(|e| e.in_file(std::path::Path::new(&self.describe())))
+    }
+
+    /// Refuses an option no input reads, as a user expects of a flag that would otherwise be
+    /// silently ignored: the label-map options without a NIfTI or NRRD label map among the
+    /// inputs (a manifest's entries counted), `roi-extent` without an RT Structure Set.
+    fn check_options_apply(&self) -> Result<()> {
+        let mut kinds = Vec::new();
+        for path in &self.inputs {
+            match InputKind::of(path) {
+                // A manifest that cannot be read is reported by the reading itself.
+                Ok(InputKind::Manifest) => kinds.extend(
+                    manifest::read(path)
+                        .unwrap_or_default()
+                        .iter()
+                        .filter_map(|e| InputKind::of(&e.path).ok()),
+                ),
+                Ok(kind) => kinds.push(kind),
+                Err(_) => {}
+            }
+        }
+        let has = |k: InputKind| kinds.contains(&k);
+        let label_map = has(InputKind::Nifti) || has(InputKind::Nrrd);
+        let set = |given: bool, name: &'static str| given.then_some(name);
+        let label_map_only = [
+            set(self.planes.is_some(), "--planes"),
+            set(self.drawn_axes.is_some(), "--drawn-axes"),
+            set(self.rotated_planes.is_some(), "--rotated-planes"),
+            set(self.axial_step.is_some(), "--axial-step"),
+            set(self.labels.is_some(), "--labels"),
+            set(self.pixel.is_some(), "--pixel"),
+            set(self.header_spacing.is_some(), "--header-spacing"),
+        ];
+        let refuse = |option: &str, applies_to: &str| -> Result<()> {
+            Err(ErrorKind::Option(format!(
+                "{option} applies to {applies_to}, and {} holds none: leave it out",
+                self.describe()
+            ))
+            .into())
+        };
+        if !label_map {
+            if let Some(option) = label_map_only.into_iter().flatten().next() {
+                return refuse(option, "label maps (NIfTI, NRRD)");
+            }
+        }
+        if self.roi_extent.is_some() && !has(InputKind::RtStruct) {
+            return refuse("--roi-extent", "DICOM RT Structure Sets");
+        }
+        Ok(())
     }
 
     /// How this spec reads its inputs, beyond the inputs and frames: every option it sets, by

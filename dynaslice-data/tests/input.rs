@@ -182,3 +182,51 @@ fn label_table_names_and_colours_reach_the_classes() {
     assert_eq!(seq.classes()[0].name, "liver");
     assert_eq!(seq.classes()[0].color, Some([221, 130, 101]));
 }
+
+#[test]
+fn options_no_input_reads_are_refused_by_name() {
+    use dynaslice_data::input_spec::InputSpec;
+    let dir = tempfile::tempdir().unwrap();
+    // A .csl manifest: no label map, no RT Structure Set.
+    let cslseq = write_sequence(dir.path());
+    let spec = |f: &dyn Fn(&mut InputSpec)| {
+        let mut s = InputSpec {
+            inputs: vec![cslseq.clone()],
+            ..InputSpec::default()
+        };
+        f(&mut s);
+        s
+    };
+    assert_eq!(spec(&|_| {}).read().unwrap().frames().len(), 3);
+    for (option, set) in [
+        (
+            "--labels",
+            &(|s: &mut InputSpec| s.labels = Some(vec![1])) as &dyn Fn(&mut InputSpec),
+        ),
+        ("--rotated-planes", &|s| s.rotated_planes = Some(4)),
+        ("--pixel", &|s| s.pixel = Some(0.5)),
+        ("--roi-extent", &|s| {
+            s.roi_extent = Some("own".parse().unwrap())
+        }),
+    ] {
+        let err = spec(set).read().unwrap_err().to_string();
+        assert!(
+            err.contains(option) && err.contains("ball.cslseq") && err.contains("leave it out"),
+            "{option}: {err}"
+        );
+    }
+    // A manifest listing a label map takes the label-map options.
+    let nifti = write(
+        dir.path(),
+        "ball.nii.gz",
+        &ball(1, [12.0, 12.0, 12.0], 1, 1.0),
+    );
+    let manifest = dir.path().join("mixed.seq");
+    std::fs::write(&manifest, format!("0 {}\n", nifti.display())).unwrap();
+    let s = InputSpec {
+        inputs: vec![manifest],
+        labels: Some(vec![1]),
+        ..InputSpec::default()
+    };
+    assert_eq!(s.read().unwrap().classes().len(), 1);
+}
