@@ -7,6 +7,14 @@ cycle. 37 frames on a 2 mm grid (64×48×72), pixdim[4] = 0.1 s, written by niba
 
     python3 lab/cases/tube4d.py make DIR             # writes DIR/tube4d.nii.gz
     python3 lab/cases/tube4d.py score TRUTH PRED     # one JSON line
+    python3 lab/cases/tube4d.py bound                # what interpolating in time can reach
+
+`bound` scores two predictions made from the *true* volumes of the trained frames, no network:
+the true signed distance interpolated in time at every voxel (linear, and a cubic spline through
+all ten trained frames), and the true shape carried by its motion (the sway amplitude, known at
+the trained frames, spline-interpolated). Any model that represents the tube by its signed
+distance as a smooth function of time at each point (Eq. 1, band-limited in t by Eq. 4) is
+bounded by the first kind; a shape carried by a displacement field reaches the second.
 
 The score: IoU pooled over all frames ("iou"), over the trained frames ("iou_trained"), the
 worst frame ("iou_min", and which), the predicted / true volume ("volume_ratio") and its least
@@ -83,10 +91,52 @@ def score(truth_path, pred_path):
     }))
 
 
+def bound():
+    from scipy.interpolate import CubicSpline
+    from scipy.ndimage import distance_transform_edt as edt
+
+    truth = [frame(t).astype(bool) for t in range(FRAMES)]
+    trained = list(range(0, FRAMES, TRAIN_EVERY))
+    sdf = np.stack([(edt(~truth[t]) - edt(truth[t])) * VOXEL for t in trained])
+    spline = CubicSpline(trained, sdf, axis=0)
+    amplitude = CubicSpline(trained, [SWAY * np.sin(2 * np.pi * t / (FRAMES - 1)) for t in trained])
+
+    def carried(a):
+        line = centre_line(0)
+        line[:, 0] = a * np.cos(np.pi * line[:, 2] / (2 * HALF_LENGTH))
+        d, _ = cKDTree(line).query(grid(), distance_upper_bound=RADIUS + 1)
+        return (d <= RADIUS).reshape(SHAPE)
+
+    def linear(t):
+        a = min(t // TRAIN_EVERY, len(trained) - 2)
+        s = (t - trained[a]) / TRAIN_EVERY
+        return (1 - s) * sdf[a] + s * sdf[a + 1] < 0
+
+    kinds = {
+        "sdf_linear": linear,
+        "sdf_spline": lambda t: spline(t) < 0,
+        "shape_carried": lambda t: carried(float(amplitude(t))),
+    }
+    out = {}
+    for name, predict in kinds.items():
+        inter = np.zeros(FRAMES)
+        union = np.zeros(FRAMES)
+        for t in range(FRAMES):
+            p = predict(t)
+            inter[t] = (p & truth[t]).sum()
+            union[t] = (p | truth[t]).sum()
+        per = inter / union
+        out[name] = {"iou": round(float(inter.sum() / union.sum()), 3),
+                     "iou_min": round(float(per.min()), 3), "iou_min_frame": int(per.argmin())}
+    print(json.dumps(out))
+
+
 if __name__ == "__main__":
     if len(sys.argv) == 3 and sys.argv[1] == "make":
         make(sys.argv[2])
     elif len(sys.argv) == 4 and sys.argv[1] == "score":
         score(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) == 2 and sys.argv[1] == "bound":
+        bound()
     else:
         sys.exit(__doc__)
