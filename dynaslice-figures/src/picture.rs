@@ -459,6 +459,34 @@ mod tests {
     use super::*;
     use dynaslice_sequence::Rect;
 
+    /// The default plane is the one with the most contour length; a frame without planes has
+    /// none.
+    #[test]
+    fn longest_plane_has_the_most_contour() {
+        let square = |side: f64| vec![[0.0, 0.0], [side, 0.0], [side, side], [0.0, side]];
+        let with = |polygons: Vec<Vec<[f64; 2]>>| Plane {
+            annotations: vec![dynaslice_sequence::Annotation { class: 0, polygons }],
+            ..plane([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+        };
+        let frame = Frame {
+            time: 0.0,
+            // Perimeters 8, 12 (two squares) and 10.
+            planes: vec![
+                with(vec![square(2.0)]),
+                with(vec![square(1.0), square(2.0)]),
+                with(vec![square(2.5)]),
+            ],
+        };
+        assert_eq!(longest_plane(&frame), Some(1));
+        let panel = Panel::annotated(&frame, 1);
+        assert_eq!(panel.title, "t = 0.0000 (annotated), plane 1");
+        assert!(longest_plane(&Frame {
+            time: 0.0,
+            planes: vec![]
+        })
+        .is_none());
+    }
+
     fn plane(origin: [f64; 3], u: [f64; 3], v: [f64; 3]) -> Plane {
         Plane {
             origin,

@@ -318,6 +318,27 @@ pub fn plane_overlap(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each category's mean is over the classes that exist in it; none existing is no mean.
+    #[test]
+    fn rows_average_the_classes_present() {
+        let overlap = |intersection: Vec<u64>, union: Vec<u64>| Overlap {
+            intersection,
+            union,
+        };
+        let scores = HeldOut {
+            spatial: overlap(vec![1, 0], vec![2, 0]),
+            temporal: overlap(vec![1, 3], vec![4, 4]),
+            spatio_temporal: overlap(vec![0, 0], vec![0, 0]),
+            planes: [3, 4, 0],
+        };
+        let rows = scores.rows();
+        assert_eq!(rows[0].category, "spatial");
+        assert_eq!((rows[0].planes, rows[0].mean), (3, Some(0.5)));
+        assert_eq!(rows[0].iou, [Some(0.5), None]);
+        assert_eq!(rows[1].mean, Some(0.5));
+        assert_eq!((rows[2].category, rows[2].mean), ("spatio-temporal", None));
+    }
     use dynaslice_data::{Annotation, ClassInfo, Frame, Rect};
     use dynaslice_test_support::spheres::{self, Sphere, SPHERES_DOMAIN};
     use std::f64::consts::{PI, TAU};

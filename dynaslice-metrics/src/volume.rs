@@ -216,6 +216,17 @@ impl VolumeCurve {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each class's range over the times, whatever order the values come in.
+    #[test]
+    fn ranges_are_each_classes_extremes() {
+        let curve = VolumeCurve {
+            classes: vec!["a".into(), "b".into()],
+            times: vec![0.0, 0.5, 1.0],
+            volumes: vec![vec![2.0, 5.0], vec![1.0, 7.0], vec![3.0, 6.0]],
+        };
+        assert_eq!(curve.ranges(), [(1.0, 3.0), (5.0, 7.0)]);
+    }
     use dynaslice_test_support::spheres::{self, Sphere};
     use dynaslice_volume::{label_indices, VoxelGrid};
 

@@ -380,6 +380,31 @@ pub fn write_model_labels_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The summary names the volume (a series by its first and last frame) and what each
+    /// companion file is for.
+    #[test]
+    fn written_files_are_described_by_kind() {
+        let (volume, companions) = describe_files(&output_files(Path::new("v.nii.gz"), 3, true));
+        assert_eq!(volume, "v.nii.gz");
+        assert_eq!(
+            companions,
+            [
+                "v.ctbl (3D Slicer colour table)",
+                "v.label.txt (ITK-SNAP label descriptions)"
+            ]
+        );
+        let (volume, companions) = describe_files(&output_files(Path::new("s.seg.nrrd"), 3, true));
+        assert_eq!(
+            volume,
+            "s_t0.seg.nrrd … s_t2.seg.nrrd (a segmentation per frame)"
+        );
+        assert_eq!(
+            companions,
+            ["s.seq.nrrd (3D Slicer sequence of the frames)"]
+        );
+        assert!(is_nifti(Path::new("A.NII")) && !is_nifti(Path::new("a.nrrd")));
+    }
     use dynaslice_data::nifti::read_volume;
     use dynaslice_data::TimeSeries;
     use dynaslice_test_support::spheres::Sphere;
