@@ -11,9 +11,9 @@ use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
 use dynaslice_output::{Kind, Plan};
 
-/// Runs `dynaslice picture` without `--3d`: the labels on one input plane (by default the frame's plane with the longest contours) at the frame's
-/// time, with its contours, and at the extra times (by default midway to the next frame),
-/// written as one PNG.
+/// Runs `dynaslice picture` without `--3d`: the labels on one input plane (by default the
+/// frame's plane with the longest contours) at the frame's time, with its contours, and at the
+/// extra times (by default midway to the next frame), written as one PNG.
 pub(super) fn run(a: Args) -> Result<()> {
     let inputs = [&a.model]
         .into_iter()
