@@ -6,8 +6,7 @@ use super::samples::SampleArgs;
 use super::widths::check_widths;
 use anyhow::{bail, Result};
 use dynaslice_core::format::{MAX_CLASSES, MAX_WIDTH};
-use dynaslice_train::bench;
-use dynaslice_train::objective::SpaceTimeScheme;
+use dynaslice_train::bench::{self, StepRow};
 
 /// Arguments of `dynaslice bench`.
 #[derive(clap::Args, Debug)]
@@ -54,11 +53,7 @@ pub fn run(a: Args) -> Result<()> {
         counts.describe(),
         a.threads
     )?;
-    let base_k = if a.classes.contains(&3) {
-        3
-    } else {
-        a.classes[0]
-    };
+    let base_k = bench::base_classes(&a.classes).expect("checked above");
     outln!(
         "{:>3} {:>13} {:>25} {:>9} {:>10} {:>12} {:>9} {:>8} {:>7} {:>7}",
         "K",
@@ -72,49 +67,34 @@ pub fn run(a: Args) -> Result<()> {
         "hinge",
         format!("× K={base_k}")
     )?;
-    let mut base = None;
-    let mut rows = Vec::new();
-    // The base K first, so every row can be compared with it.
-    let order = std::iter::once(base_k).chain(a.classes.iter().copied().filter(|&k| k != base_k));
-    for k in order {
-        for scheme in [
-            SpaceTimeScheme::ReverseOverReverse,
-            SpaceTimeScheme::ForwardTangents,
-        ] {
-            let r = bench::step(&a.widths, k, scheme, &counts, a.threads, a.repeats);
-            let chosen = scheme == SpaceTimeScheme::cheapest(k);
-            if chosen && k == base_k {
-                base = Some(r.seconds);
-            }
-            rows.push((k, chosen, r));
-        }
-    }
-    for &k in &a.classes {
-        for (_, chosen, r) in rows.iter().filter(|row| row.0 == k) {
-            let mark = if *chosen { "*" } else { " " };
-            let ratio = match (chosen, base) {
-                (true, Some(b)) => format!("{:.2}", r.seconds / b),
-                _ => String::new(),
-            };
-            outln!(
-                "{:>3} {:>13} {:>24}{mark} {:>9} {:>10.4} {:>12.0} {:>9.1} {:>7.1}% {:>6.0}% {:>7}",
-                r.num_classes,
-                format!(
-                    "{}+{}+{}",
-                    counts.total(counts.contour_per_class, k),
-                    counts.total(counts.plane_per_class, k),
-                    counts.space
-                ),
-                format!("{:?} ({}M)", r.scheme, r.scheme.cost(k)),
-                r.params,
-                r.seconds,
-                r.points_per_second,
-                r.gflops,
-                100.0 * r.gflops / peak.all,
-                100.0 * r.active_contour,
-                ratio
-            )?;
-        }
+    let rows = bench::step_table(&a.widths, &a.classes, &counts, a.threads, a.repeats);
+    for StepRow {
+        report: r,
+        chosen,
+        ratio,
+    } in rows
+    {
+        let mark = if chosen { "*" } else { " " };
+        let ratio = ratio.map_or(String::new(), |ratio| format!("{ratio:.2}"));
+        let k = r.num_classes;
+        outln!(
+            "{:>3} {:>13} {:>24}{mark} {:>9} {:>10.4} {:>12.0} {:>9.1} {:>7.1}% {:>6.0}% {:>7}",
+            r.num_classes,
+            format!(
+                "{}+{}+{}",
+                counts.total(counts.contour_per_class, k),
+                counts.total(counts.plane_per_class, k),
+                counts.space
+            ),
+            format!("{:?} ({}M)", r.scheme, r.scheme.cost(k)),
+            r.params,
+            r.seconds,
+            r.points_per_second,
+            r.gflops,
+            100.0 * r.gflops / peak.all,
+            100.0 * r.active_contour,
+            ratio
+        )?;
     }
     Ok(())
 }

@@ -4,9 +4,8 @@ use super::console::outln;
 use super::input::{self, InputArgs};
 use super::progress::Progress;
 use anyhow::{Context, Result};
-use dynaslice_core::Weights;
 use dynaslice_metrics::extent;
-use dynaslice_model::ModelFile;
+use dynaslice_model::{describe, ModelFile};
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice info`.
@@ -29,63 +28,14 @@ pub struct Args {
     input: InputArgs,
 }
 
-/// Runs `dynaslice info`: prints the model's size, layer widths, cost per point, world bounds,
-/// time range and ω_t^max (normalised time) of a moving model (a static one has no time axis),
-/// classes with their source labels, and metadata.
+/// Runs `dynaslice info`: prints the model's description ([`describe`]: size, layer widths,
+/// cost per point, world bounds, time range and ω_t^max or that it is static, classes with
+/// their source labels, metadata), then the extent check.
 pub fn run(args: Args) -> Result<()> {
     let file = ModelFile::open(&args.model)?;
-    let model = file.model();
-    let layout = model.layout();
-    let d = model.domain();
-    let (lo, hi) = d.bounds();
-    let (t0, t1) = d.time_range();
-    let dtype = match model.weights() {
-        Weights::F32(_) => "f32",
-        Weights::F16(_) => "f16",
-    };
     outln!("model        {}", args.model.display())?;
-    outln!(
-        "size         {} bytes ({} weights, {dtype})",
-        file.len(),
-        layout.param_count()
-    )?;
-    outln!("sine layers  {:?}", layout.widths())?;
-    outln!("classes      {}", layout.num_classes())?;
-    outln!(
-        "cost         {} multiply-adds per point for f (x4 with ∇ₓf)",
-        layout.macs_per_point()
-    )?;
-    outln!(
-        "bounds       [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
-        lo[0],
-        lo[1],
-        lo[2],
-        hi[0],
-        hi[1],
-        hi[2]
-    )?;
-    if file.is_static() {
-        outln!(
-            "time         none: a static model (trained on one timestep, ω_t^max = 0), the same \
-             at every time; its outputs are one frame, at t = {t0}"
-        )?;
-    } else {
-        outln!("time range   {t0} .. {t1}")?;
-        outln!("ω_t^max      {} (normalised time)", model.omega_t_max())?;
-    }
-    for (k, class) in model.classes().enumerate() {
-        outln!(
-            "class {:<6} {:?} (source label {})",
-            k + 1,
-            class.name,
-            class.label
-        )?;
-    }
-    if !model.metadata().is_empty() {
-        outln!("metadata")?;
-        for line in model.metadata().lines() {
-            outln!("  {line}")?;
-        }
+    for line in describe(&file.model(), file.len()) {
+        outln!("{line}")?;
     }
     check_extents(&args, &file)
 }

@@ -1,9 +1,8 @@
 //! The input options every command that reads cross-sections shares, and reading them through
-//! [`dynaslice_data::input`]; and the check of the other files a command reads itself (a model,
-//! `--like`, a reference mesh) by the readers' regular-file rule.
+//! [`dynaslice_data::input`].
 
 use super::times::note;
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, Result};
 use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::input_spec::InputSpec;
@@ -12,7 +11,7 @@ use dynaslice_data::nifti::HeaderSpacing;
 use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::Sequence;
 use dynaslice_model::ModelFile;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use crate::options::{count, positive_f64};
 
@@ -145,16 +144,6 @@ impl InputArgs {
 /// Reads the inputs of `file`'s model as it was trained on them ([`InputArgs::spec_as_trained`]).
 pub fn read_as_trained(args: &InputArgs, file: &ModelFile) -> Result<Sequence> {
     Ok(args.spec_as_trained(file)?.read()?)
-}
-
-/// `path` as an input: it exists and is a regular file (a FIFO would block the open, a device
-/// like /dev/zero would never end), checked by the readers' own rule
-/// ([`dynaslice_sequence::input_file::regular_file`]). `what` names it in the message (e.g. "model").
-pub fn regular_file(what: &str, path: &Path) -> Result<()> {
-    match dynaslice_sequence::input_file::regular_file(path) {
-        Ok(_) => Ok(()),
-        Err(e) => bail!("cannot read {what} {}: {}", path.display(), e.kind),
-    }
 }
 
 #[cfg(test)]

@@ -3,23 +3,22 @@
 //! its colour tables, or as 3D Slicer segmentations and their sequence.
 
 use super::console::errln;
-use super::input::regular_file;
 use super::memory::{self, MemoryArgs};
 use super::options::{
     count, f32_in, finite_f64, positive_f64, time_series, MAX_SAFETY, MAX_THREADS, MAX_TIMES,
 };
+use super::pool::pool;
 use super::progress::Progress;
 use super::times::{note, times_option};
-use anyhow::{bail, Context, Result};
-use dynaslice_core::Model;
-use dynaslice_data::nifti::read_geometry;
+use anyhow::{bail, Result};
 use dynaslice_data::TimeSeries;
 use dynaslice_metrics::motion::Units;
 use dynaslice_model::ModelFile;
 use dynaslice_output::{Kind, Plan};
 use dynaslice_sequence::palette;
-use dynaslice_volume::{output_files, Evaluation, VoxelGrid, WriteOptions, DEFAULT_SAFETY};
-use std::path::{Path, PathBuf};
+use dynaslice_volume::{class_volumes, describe_files, fit_times, output_files, working_bytes};
+use dynaslice_volume::{Evaluation, VoxelGrid, WriteOptions, DEFAULT_SAFETY};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// Arguments of `dynaslice labels`.
@@ -88,12 +87,6 @@ pub struct Args {
     memory: MemoryArgs,
 }
 
-/// Bytes per voxel while a frame is labelled and written: a u32 class index and an i32 label
-/// per voxel ([`dynaslice_volume::write_model_labels_with`]), and up to 4 more for the frame's
-/// encoded copy (2 in the NIfTI writer, up to 4 in a `.seg.nrrd` of labels beyond 16 bits; the
-/// sequence is compressed in chunks).
-const BYTES_PER_VOXEL: f64 = 12.0;
-
 /// Runs `dynaslice labels`: the model's Eq. 11 label volume on a reference grid or a box, as
 /// NIfTI with colour tables or as 3D Slicer segmentations and their sequence.
 pub fn run(a: Args) -> Result<()> {
@@ -102,73 +95,51 @@ pub fn run(a: Args) -> Result<()> {
         a.force,
     );
     plan.file("-o", &a.output, Kind::LabelVolume)?;
-    let evaluation = if a.dense {
-        Evaluation::Dense
-    } else {
-        Evaluation::Pruned { safety: a.safety }
+    let evaluation = match a.dense {
+        true => Evaluation::Dense,
+        false => Evaluation::Pruned { safety: a.safety },
     };
     evaluation.validate()?;
     let file = ModelFile::open(&a.model)?;
     let model = file.model();
+    let times = a.times.as_ref().map(TimeSeries::times);
     let mut grid = match &a.like {
-        // The header alone: the reference's voxels are never needed, and its size is known
-        // (and checked below) before anything is allocated for it.
-        Some(reference) => {
-            regular_file("reference", reference)?;
-            let name = reference.to_string_lossy().to_ascii_lowercase();
-            if !(name.ends_with(".nii") || name.ends_with(".nii.gz")) {
-                bail!(
-                    "--like {}: not a NIfTI image (.nii, .nii.gz), so it has no voxel grid to \
-                     label on; give --bounds and --spacing (or neither: the model's domain at \
-                     128 voxels along its longest side), or a NIfTI image of the same subject",
-                    reference.display()
-                );
-            }
-            let mut grid = VoxelGrid::like(&read_geometry(reference)?);
-            if let Some(series) = &a.times {
-                grid.times = series.times();
-            }
-            grid
+        Some(reference) => VoxelGrid::like_file(reference, times)?,
+        None => {
+            let (bounds, spacing) = (a.bounds.as_deref(), a.spacing.as_deref());
+            VoxelGrid::over_model(&model, file.is_static(), bounds, spacing, times)?
         }
-        None => bounds_grid(&a, &model, file.is_static())?,
     };
-    if file.is_static() && grid.times.len() > 1 {
-        // The same labels at every time: one frame, not N identical ones.
-        note(&format!(
-            "{}: a static model (trained on one timestep, ω_t^max = 0) is the same at every \
-             time; writing one label frame, not the {} frames of {}",
-            a.model.display(),
-            grid.times.len(),
-            if a.like.is_some() {
-                "--like"
-            } else {
-                "--times"
-            }
-        ));
-        grid.times.truncate(1);
-    }
     // The one time rule: a frame outside the model's range (a --times series past it, or a
     // reference with more or longer frames) is refused, never extrapolated.
     let from_like = a.like.is_some() && a.times.is_none();
-    let option = if from_like {
-        "--like's frame time".to_string()
-    } else {
-        times_option(a.times.as_ref())
+    let option = match from_like {
+        true => "--like's frame time".to_string(),
+        false => times_option(a.times.as_ref()),
     };
-    if !file.is_static() {
-        file.check_times(&option, grid.times.iter().copied())
-            .map_err(|e| match from_like {
-                true => anyhow::anyhow!(
-                    "{e:#}; --like's frame f is at toffset + f × pixdim[4] of its header: give \
-                     --times (a list or A:B:N) for other times on its grid"
-                ),
-                false => e,
-            })?;
+    let of = match a.like {
+        Some(_) => "--like",
+        None => "--times",
+    };
+    match fit_times(&file, &mut grid, &option) {
+        // The same labels at every time: one frame, not N identical ones.
+        Ok(0) => {}
+        Ok(dropped) => note(&format!(
+            "{}: a static model (trained on one timestep, ω_t^max = 0) is the same at every \
+             time; writing one label frame, not the {} frames of {of}",
+            a.model.display(),
+            dropped + 1,
+        )),
+        Err(e) if from_like => bail!(
+            "{e:#}; --like's frame f is at toffset + f × pixdim[4] of its header: give --times \
+             (a list or A:B:N) for other times on its grid"
+        ),
+        Err(e) => return Err(e),
     }
     let [nx, ny, nz] = grid.dims;
     memory::check(
         &format!("a label volume of {nx}×{ny}×{nz} voxels"),
-        grid.dims.iter().map(|&n| n as f64).product::<f64>() * BYTES_PER_VOXEL,
+        working_bytes(&grid),
         "use a coarser --spacing or smaller --bounds",
         a.memory,
     )?;
@@ -179,15 +150,8 @@ pub fn run(a: Args) -> Result<()> {
     for path in files.iter().filter(|p| **p != a.output) {
         plan.beside(path)?;
     }
-    let options = WriteOptions {
-        evaluation,
-        colors: file.classes().into_iter().map(|c| c.color).collect(),
-        companions: true,
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.unwrap_or(0))
-        .build()
-        .context("cannot start worker threads")?;
+    let options = WriteOptions::for_model(&file, evaluation);
+    let pool = pool(a.threads)?;
     let start = Instant::now();
     let progress = Progress::new("labelling: frame", frames as u64);
     let counts = pool.install(|| {
@@ -196,7 +160,7 @@ pub fn run(a: Args) -> Result<()> {
         })
     })?;
     progress.finish();
-    let (volume, companions) = describe(&files);
+    let (volume, companions) = describe_files(&files);
     errln!(
         "wrote {volume}: {nx}×{ny}×{nz} voxels × {frames} frame(s) in {:.1} s",
         start.elapsed().as_secs_f64()
@@ -206,106 +170,25 @@ pub fn run(a: Args) -> Result<()> {
     }
     // The class volumes of the first and last frame, a quick plausibility check, and the
     // colour each class has in every output; in mL where the input's units are millimetres.
-    let voxel = grid.voxel_volume();
-    let colors = file.class_colors();
-    let units = file.units();
-    for ((k, class), color) in model.classes().enumerate().zip(colors) {
-        let v = |f: usize| units.from_world_volume(counts[f][k + 1] as f64 * voxel);
+    let volumes = class_volumes(&file, &grid, &counts);
+    let unit = match file.units() {
+        Units::Millimetres => "mL",
+        Units::Plain => "the input's plain units³",
+    };
+    for ((k, class), color) in model.classes().enumerate().zip(file.class_colors()) {
         // Times come from f32 header fields: print them at that precision (1, not
         // 1.0000000074505806).
-        let at = |f: usize| format!("{:.6} at t = {}", v(f), grid.times[f] as f32);
-        let volumes = if frames == 1 {
-            at(0)
-        } else {
-            format!("{}, {}", at(0), at(frames - 1))
+        let at = |f: usize| format!("{:.6} at t = {}", volumes[f][k], grid.times[f] as f32);
+        let volumes = match frames {
+            1 => at(0),
+            _ => format!("{}, {}", at(0), at(frames - 1)),
         };
+        let hex = palette::to_hex(color);
         errln!(
-            "  label {} {:?} {}: {volumes} ({})",
+            "  label {} {:?} {hex}: {volumes} ({unit})",
             class.label,
-            class.name,
-            palette::to_hex(color),
-            match units {
-                Units::Millimetres => "mL",
-                Units::Plain => "the input's plain units³",
-            }
+            class.name
         );
     }
     Ok(())
-}
-
-/// The written `files` ([`output_files`]) for the summary: the volume (a series of frames by
-/// its first and last), and the companion files, each named with what it is for.
-fn describe(files: &[PathBuf]) -> (String, Vec<String>) {
-    let lower = |p: &Path| p.to_string_lossy().to_ascii_lowercase();
-    let (volume, companions): (Vec<&PathBuf>, Vec<&PathBuf>) = files.iter().partition(|p| {
-        let name = lower(p);
-        name.ends_with(".seg.nrrd") || name.ends_with(".nii") || name.ends_with(".nii.gz")
-    });
-    let volume = match volume[..] {
-        [one] => one.display().to_string(),
-        [first, .., last] => format!(
-            "{} … {} (a segmentation per frame)",
-            first.display(),
-            last.display()
-        ),
-        [] => String::new(),
-    };
-    let companions = companions
-        .iter()
-        .map(|p| {
-            let name = lower(p);
-            let what = if name.ends_with(".ctbl") {
-                "3D Slicer colour table"
-            } else if name.ends_with(".label.txt") {
-                "ITK-SNAP label descriptions"
-            } else {
-                "3D Slicer sequence of the frames"
-            };
-            format!("{} ({what})", p.display())
-        })
-        .collect();
-    (volume, companions)
-}
-
-/// The grid of `--bounds`, `--spacing` and `--times`, each defaulting to the model's (a static
-/// model's times to its one time).
-fn bounds_grid(a: &Args, model: &Model, is_static: bool) -> Result<VoxelGrid> {
-    let (lo, hi) = match &a.bounds {
-        Some(b) => match b[..] {
-            [x0, y0, z0, x1, y1, z1] => ([x0, y0, z0], [x1, y1, z1]),
-            _ => bail!("--bounds takes 6 values X0,Y0,Z0,X1,Y1,Z1, not {}", b.len()),
-        },
-        None => {
-            let (lo, hi) = model.domain().bounds();
-            (lo.map(f64::from), hi.map(f64::from))
-        }
-    };
-    let spacing = match a.spacing.as_deref() {
-        Some(&[s]) => [s; 3],
-        Some(&[x, y, z]) => [x, y, z],
-        Some(other) => bail!("--spacing takes 1 or 3 values, not {}", other.len()),
-        None => {
-            let longest = (0..3).map(|i| hi[i] - lo[i]).fold(0.0, f64::max);
-            [longest / 128.0; 3]
-        }
-    };
-    // A voxel wider than the box along every axis is one voxel of nothing: a mistyped value.
-    if (0..3).all(|i| spacing[i] > hi[i] - lo[i]) {
-        bail!(
-            "--spacing {spacing:?} is wider than the box (sides {:?}, {lo:?} to {hi:?}) along every \
-             axis: the volume would be a single voxel",
-            [0, 1, 2].map(|i| hi[i] - lo[i])
-        );
-    }
-    let times = match &a.times {
-        Some(series) => series.times(),
-        None if is_static => vec![f64::from(model.domain().time_range().0)],
-        None => {
-            let (t0, t1) = model.domain().time_range();
-            TimeSeries::across(t0, t1, 10)
-                .map_err(anyhow::Error::msg)?
-                .times()
-        }
-    };
-    VoxelGrid::from_bounds(lo, hi, spacing, times)
 }

@@ -19,6 +19,7 @@ mod memory;
 mod mesh;
 mod options;
 mod picture;
+mod pool;
 mod progress;
 mod query;
 mod report;

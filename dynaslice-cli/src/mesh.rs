@@ -8,14 +8,17 @@ use super::options::{
     count, f32_in, finite_f32, time_series, MAX_MESH_RESOLUTION, MAX_NEWTON_STEPS, MAX_SAFETY,
     MAX_THREADS, MAX_TIMES,
 };
+use super::pool::pool;
 use super::progress::Progress;
 use super::times::{model_times, times_option};
-use anyhow::{anyhow, Context, Result};
-use dynaslice_core::Model;
+use anyhow::{anyhow, Result};
 use dynaslice_data::TimeSeries;
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
-use dynaslice_mesh::{self as mesh, Extraction, Options, Sampling, Surfaces, DEFAULT_SAFETY};
+use dynaslice_mesh::model_meshes::planned_paths;
+// `report.rs` meshes through this path.
+pub(crate) use dynaslice_mesh::surfaces_at;
+use dynaslice_mesh::{self as mesh, Options, DEFAULT_SAFETY};
 use dynaslice_model::ModelFile;
 use dynaslice_output::{Kind, Plan};
 use std::path::PathBuf;
@@ -102,58 +105,23 @@ fn parse_format(s: &str) -> Result<Format, String> {
     Format::from_name(s).ok_or_else(|| format!("unknown format {s:?}; use ply, obj, stl or vtp"))
 }
 
-/// The surfaces of `classes` (0-based channels) at world time `t` over the model's bounds: the
-/// one extraction `mesh` and `picture --3d` share. `report` gets one line on its cost (lattice,
-/// evaluations against a dense grid's, seconds).
-pub(crate) fn surfaces_at(
-    model: &Model,
-    t: f32,
-    classes: &[usize],
-    options: &Options,
-    report: impl Fn(String),
-) -> Result<Extraction> {
-    let start = Instant::now();
-    let extraction = mesh::extract(model, model.domain().bounds(), t, classes, options)?;
-    let (lattice, stats) = (&extraction.lattice, &extraction.stats);
-    report(format!(
-        "t = {t}: {}x{}x{} cells of {:.4}, {} value + {} jacobian evaluations \
-         (dense grid: {} values, {:.1}x more), {:.2} s",
-        lattice.cells[0],
-        lattice.cells[1],
-        lattice.cells[2],
-        lattice.h,
-        stats.value_evaluations,
-        stats.jacobian_evaluations,
-        stats.dense_evaluations,
-        stats.dense_evaluations as f64 / stats.value_evaluations.max(1) as f64,
-        start.elapsed().as_secs_f64()
-    ));
-    Ok(extraction)
-}
-
 /// Runs `dynaslice mesh`: the selected classes' surfaces at one time or a series, on `--threads`.
 pub fn run(args: Args) -> Result<()> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .context("cannot start worker threads")?;
+    let pool = pool(args.threads)?;
     pool.install(|| mesh_all(&args))
 }
 
 fn mesh_all(args: &Args) -> Result<()> {
     let series = args.times.is_some();
     let mut plan = Plan::new([&args.model], args.force);
-    if series {
-        plan.directory("-o", &args.output)?;
-    } else {
-        plan.file("-o", &args.output, Kind::Mesh)?;
+    match series {
+        true => plan.directory("-o", &args.output)?,
+        false => plan.file("-o", &args.output, Kind::Mesh)?,
     }
     let file = ModelFile::open(&args.model)?;
     let model = file.model();
     let classes = dynaslice_model::resolve_classes(&model, &args.classes)
         .map_err(|e| anyhow!("{}: {e}", args.model.display()))?;
-    let names: Vec<String> = model.classes().map(|c| c.name.to_string()).collect();
-    let colors = file.class_colors();
     let (option, requested) = match (&args.times, args.time) {
         // The network takes f32 times (the f64 series rounded once).
         (Some(series), _) => (
@@ -172,87 +140,49 @@ fn mesh_all(args: &Args) -> Result<()> {
         &requested,
         "writing one mesh per class",
     )?;
+    let options = Options::of(
+        args.resolution,
+        args.dense,
+        args.safety,
+        args.non_overlapping,
+        args.newton_steps,
+    );
     if args.dense {
-        // The dense lattice's values: K f32 per vertex, its hash-map entry and cell list
-        // (about 48 bytes per vertex); the domain is a cube, so (resolution + 1)³ vertices.
-        let vertices = (f64::from(args.resolution) + 1.0).powi(3);
-        let bytes = vertices * (4.0 * classes.len() as f64 + 48.0);
         memory::check(
             &format!("--dense at --resolution {}", args.resolution),
-            bytes,
+            options.dense_bytes(classes.len()),
             "lower --resolution or drop --dense",
             args.memory,
         )?;
     }
-    let options = Options {
-        resolution: args.resolution,
-        sampling: if args.dense {
-            Sampling::Dense
-        } else {
-            Sampling::Sparse {
-                safety: args.safety,
-            }
-        },
-        surfaces: if args.non_overlapping {
-            Surfaces::Partition
-        } else {
-            Surfaces::Overlapping
-        },
-        newton_steps: args.newton_steps,
-    };
     // Where each (time, class) mesh goes.
     let space = args.space.unwrap_or_else(|| file.space());
-    let mut files = if series {
-        MeshFiles::series(&args.output, args.format, space)?
-    } else {
-        MeshFiles::single(&args.output, classes.len(), space)?
+    let mut files = match series {
+        true => MeshFiles::series(&args.output, args.format, space)?,
+        false => MeshFiles::single(&args.output, classes.len(), space)?,
     };
     // Every file the run writes (the per-class files beside -o, a series' meshes and
     // collection), checked before any work.
-    for i in 0..times.len() {
-        for &k in &classes {
-            let path = files.path(i, k, &names[k]);
-            if path != args.output {
-                plan.beside(&path)?;
-            }
+    for path in planned_paths(&model, &files, times.len(), &classes) {
+        if path != args.output {
+            plan.beside(&path)?;
         }
     }
-    if let Some(collection) = files.collection() {
-        plan.beside(&collection)?;
-    }
-
     let progress = Progress::new("meshing: time", times.len() as u64);
-    let (mut values, mut jacobians, mut dense) = (0u64, 0u64, 0u64);
     let started = Instant::now();
-    let report = |line: String| progress.println(line);
-    for (i, &t) in times.iter().enumerate() {
-        let Extraction { meshes, stats, .. } = surfaces_at(&model, t, &classes, &options, report)?;
-        values += stats.value_evaluations;
-        jacobians += stats.jacobian_evaluations;
-        dense += stats.dense_evaluations;
-        for (mesh, &k) in meshes.iter().zip(&classes) {
-            let path = files.path(i, k, &names[k]);
-            let topology = mesh.topology();
-            report(format!(
-                "  class {} ({}): {} vertices, {} triangles, volume {:.6}, area {:.6}{} -> {}",
-                k + 1,
-                names[k],
-                mesh.positions.len(),
-                mesh.triangles.len(),
-                mesh.enclosed_volume(),
-                mesh.area(),
-                if topology.is_closed_manifold() {
-                    String::new()
-                } else {
-                    format!(" (NOT a closed manifold: {topology:?})")
-                },
-                path.display()
-            ));
-            let class = model.class(k as u32 + 1)?;
-            files.write(i, t, k, class, colors[k], mesh)?;
-        }
-        progress.inc();
-    }
+    let colors = file.class_colors();
+    let stats = mesh::write_meshes(
+        &model,
+        &times,
+        &classes,
+        &colors,
+        &options,
+        &mut files,
+        |step| match step.line() {
+            Some(line) => progress.println(line),
+            None => progress.inc(),
+        },
+    )?;
     progress.finish();
     match files.finish()? {
         Some(pvd) => errln!("wrote {}", pvd.display()),
@@ -262,12 +192,8 @@ fn mesh_all(args: &Args) -> Result<()> {
         None => {}
     }
     if times.len() > 1 {
-        errln!(
-            "{} times in {:.1} s: {values} value + {jacobians} jacobian evaluations (dense: {dense} values, {:.1}x more)",
-            times.len(),
-            started.elapsed().as_secs_f64(),
-            dense as f64 / values.max(1) as f64
-        );
+        let seconds = started.elapsed().as_secs_f64();
+        errln!("{} times in {seconds:.1} s: {stats}", times.len());
     }
     Ok(())
 }

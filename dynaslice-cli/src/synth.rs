@@ -6,9 +6,9 @@ use super::options::{
     count, MAX_PLANE_RESOLUTION, MAX_SYNTH_PLANES, MAX_SYNTH_TIMESTEPS, MAX_VOLUME_RESOLUTION,
 };
 use super::progress::Progress;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use dynaslice_output::Plan;
-use dynaslice_synth::{write_benchmark, BenchmarkOptions, Shape};
+use dynaslice_synth::{write_data_sets, BenchmarkOptions, Shape};
 use std::path::PathBuf;
 
 /// Arguments of `dynaslice synth`.
@@ -53,10 +53,6 @@ fn parse_pair(s: &str) -> Result<(usize, usize), String> {
     Ok((r, p))
 }
 
-/// Bytes per voxel and frame of the ground truth: the i32 labels of every frame, held until
-/// written, and the writer's encoded copy.
-const BYTES_PER_VOXEL_FRAME: f64 = 8.0;
-
 /// Runs `dynaslice synth`: each shape's data set is written into a temporary folder inside
 /// DIR and renamed to DIR/<shape> when complete, so a failed run leaves no partial data set.
 pub fn run(args: Args) -> Result<()> {
@@ -79,16 +75,6 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
-    let r = args.volume_resolution as f64;
-    memory::check(
-        &format!(
-            "--volume-resolution {} over {} timesteps",
-            args.volume_resolution, args.timesteps
-        ),
-        r * r * r * args.timesteps as f64 * BYTES_PER_VOXEL_FRAME,
-        "lower --volume-resolution or --timesteps",
-        args.memory,
-    )?;
     let options = BenchmarkOptions {
         timesteps: args.timesteps,
         train_every: args.train_every,
@@ -96,10 +82,15 @@ pub fn run(args: Args) -> Result<()> {
         plane_resolution: args.plane_resolution,
         volume_resolution: args.volume_resolution,
     };
-    if !dir.exists() {
-        std::fs::create_dir(dir)
-            .with_context(|| format!("cannot create directory {}", dir.display()))?;
-    }
+    memory::check(
+        &format!(
+            "--volume-resolution {} over {} timesteps",
+            args.volume_resolution, args.timesteps
+        ),
+        options.truth_bytes(),
+        "lower --volume-resolution or --timesteps",
+        args.memory,
+    )?;
     // Slicing and the ground-truth volumes take a minute per shape on a loaded machine.
     let progress = Progress::new(
         "writing the slices and ground truth: shape",
@@ -108,40 +99,16 @@ pub fn run(args: Args) -> Result<()> {
     // A failed listing (the reader of standard output gone) stops the listing, not the
     // remaining data sets.
     let mut listed = Ok(());
-    for shape in shapes {
-        // Deleted with its contents unless renamed away (any error, or a panic).
-        let mut builder = tempfile::Builder::new();
-        builder.prefix(".synth-");
-        // Renamed into place as the data set's folder: the mode `mkdir` gives (0777 & ~umask),
-        // not tempfile's private 0700.
-        #[cfg(unix)]
-        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o777));
-        let tmp = builder
-            .tempdir_in(dir)
-            .with_context(|| format!("cannot create a temporary folder in {}", dir.display()))?;
-        let files = write_benchmark(tmp.path(), &[shape], &options)?;
-        let target = dir.join(shape.name());
-        if target.exists() {
-            // --force (checked above): the old data set goes only once the new one is complete.
-            std::fs::remove_dir_all(&target)
-                .with_context(|| format!("cannot remove {}", target.display()))?;
-        }
-        std::fs::rename(tmp.path().join(shape.name()), &target)
-            .with_context(|| format!("cannot rename the data set to {}", target.display()))?;
+    write_data_sets(dir, &shapes, &options, |files| {
         progress.inc();
-        for f in &files {
+        for f in files {
             if listed.is_err() {
                 break;
             }
-            let moved = |p: &std::path::Path| target.join(p.file_name().unwrap_or_default());
-            listed = outln!(
-                "{:<9} {}  {}",
-                f.shape.name(),
-                moved(&f.slices).display(),
-                moved(&f.truth).display()
-            );
+            let (name, slices, truth) = (f.shape.name(), f.slices.display(), f.truth.display());
+            listed = outln!("{name:<9} {slices}  {truth}");
         }
-    }
+    })?;
     progress.finish();
     Ok(listed?)
 }

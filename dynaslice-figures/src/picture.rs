@@ -16,7 +16,7 @@ use crate::display::Display;
 use crate::legend::{self, Item};
 use anyhow::{anyhow, Result};
 use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
-use dynaslice_sequence::{ClassInfo, Plane};
+use dynaslice_sequence::{ClassInfo, Frame, Plane};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -36,6 +36,56 @@ pub struct Panel<'a> {
     pub title: String,
     /// Plane whose contours are drawn (`None`: labels only).
     pub contours: Option<&'a Plane>,
+}
+
+impl<'a> Panel<'a> {
+    /// The panel of an annotated frame: its time, and the contours of its plane `index`.
+    pub fn annotated(frame: &'a Frame, index: usize) -> Panel<'a> {
+        Panel {
+            time: frame.time,
+            title: format!("t = {:.4} (annotated), plane {index}", frame.time),
+            contours: Some(&frame.planes[index]),
+        }
+    }
+
+    /// The panel of a time without contours.
+    pub fn unannotated(time: f64) -> Panel<'a> {
+        Panel {
+            time,
+            title: format!("t = {time:.4} (not annotated)"),
+            contours: None,
+        }
+    }
+}
+
+/// The plane of `frame` with the most contour length, a picture's default (`None`: the frame
+/// has no plane).
+pub fn longest_plane(frame: &Frame) -> Option<usize> {
+    let length = |plane: &Plane| -> f64 {
+        let polygons = plane.annotations.iter().flat_map(|a| &a.polygons);
+        polygons
+            .map(|p| {
+                (0..p.len())
+                    .map(|j| {
+                        let (a, b) = (p[j], p[(j + 1) % p.len()]);
+                        (a[0] - b[0]).hypot(a[1] - b[1])
+                    })
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    (0..frame.planes.len())
+        .max_by(|&i, &j| length(&frame.planes[i]).total_cmp(&length(&frame.planes[j])))
+}
+
+/// The names of the `input` classes that [`match_classes`] left undrawn (`drawn_as` `None`).
+pub fn undrawn<'a>(input: &'a [ClassInfo], drawn_as: &[Option<usize>]) -> Vec<&'a str> {
+    input
+        .iter()
+        .zip(drawn_as)
+        .filter(|(_, k)| k.is_none())
+        .map(|(c, _)| c.name.as_str())
+        .collect()
 }
 
 /// The plane by orientation and position, coordinates in `unit` (the input's): `axial z = 12.0 mm`, `coronal y = …`,
@@ -408,6 +458,34 @@ pub fn plane_labels(
 mod tests {
     use super::*;
     use dynaslice_sequence::Rect;
+
+    /// The default plane is the one with the most contour length; a frame without planes has
+    /// none.
+    #[test]
+    fn longest_plane_has_the_most_contour() {
+        let square = |side: f64| vec![[0.0, 0.0], [side, 0.0], [side, side], [0.0, side]];
+        let with = |polygons: Vec<Vec<[f64; 2]>>| Plane {
+            annotations: vec![dynaslice_sequence::Annotation { class: 0, polygons }],
+            ..plane([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+        };
+        let frame = Frame {
+            time: 0.0,
+            // Perimeters 8, 12 (two squares) and 10.
+            planes: vec![
+                with(vec![square(2.0)]),
+                with(vec![square(1.0), square(2.0)]),
+                with(vec![square(2.5)]),
+            ],
+        };
+        assert_eq!(longest_plane(&frame), Some(1));
+        let panel = Panel::annotated(&frame, 1);
+        assert_eq!(panel.title, "t = 0.0000 (annotated), plane 1");
+        assert!(longest_plane(&Frame {
+            time: 0.0,
+            planes: vec![]
+        })
+        .is_none());
+    }
 
     fn plane(origin: [f64; 3], u: [f64; 3], v: [f64; 3]) -> Plane {
         Plane {

@@ -80,6 +80,49 @@ impl Camera {
     };
 }
 
+/// The sides a 3D picture is seen from, in the model's RAS world ([`Camera::from_side`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    /// From the front, a little to the patient's right and above; superior up
+    /// ([`Camera::ANTERIOR_OBLIQUE`]).
+    Oblique,
+    /// From the front (+A); superior up, the patient's right on the left.
+    Anterior,
+    /// From behind (−A); superior up.
+    Posterior,
+    /// From the patient's left (−R); superior up.
+    Left,
+    /// From the patient's right (+R); superior up.
+    Right,
+    /// From above (+S); anterior up, the patient's right on the right.
+    Superior,
+    /// From below (−S), as axial images are shown; anterior up, the patient's right on the
+    /// left.
+    Inferior,
+}
+
+impl Camera {
+    /// The orthographic camera looking from `side`.
+    pub fn from_side(side: Side) -> Camera {
+        const S: [f64; 3] = [0.0, 0.0, 1.0];
+        const A: [f64; 3] = [0.0, 1.0, 0.0];
+        let (from, up) = match side {
+            Side::Oblique => return Camera::ANTERIOR_OBLIQUE,
+            Side::Anterior => (A, S),
+            Side::Posterior => ([0.0, -1.0, 0.0], S),
+            Side::Left => ([-1.0, 0.0, 0.0], S),
+            Side::Right => ([1.0, 0.0, 0.0], S),
+            Side::Superior => (S, A),
+            Side::Inferior => ([0.0, 0.0, -1.0], A),
+        };
+        Camera {
+            from,
+            up,
+            ..Camera::ANTERIOR_OBLIQUE
+        }
+    }
+}
+
 impl Default for Camera {
     fn default() -> Self {
         Camera::ANTERIOR_OBLIQUE
@@ -356,6 +399,44 @@ fn framing(panels: &[SurfacePanel], path: &Path) -> Result<(V3, f64)> {
     let centre = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
     let radius = 0.5 * (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
     Ok((centre, radius))
+}
+
+/// Panels of a 3D picture of a moving model by default: enough to see the motion, few enough
+/// to stay readable side by side.
+pub const DEFAULT_TIMES: usize = 4;
+
+/// The default times of a 3D picture of a model moving over `t0..t1`: [`DEFAULT_TIMES`]
+/// evenly, both ends included.
+pub fn default_times(t0: f32, t1: f32) -> Vec<f32> {
+    let n = DEFAULT_TIMES;
+    (0..n)
+        .map(|i| t0 + (t1 - t0) * i as f32 / (n - 1) as f32)
+        .collect()
+}
+
+/// The whole 3D picture of a model: every class of `model` meshed at each of `times` over its
+/// bounds with `mesh` (the extraction of `dynaslice mesh`), rendered with `options` into a
+/// PNG at `path` put in place whole, one panel per time; `classes` name and colour the
+/// classes. `on_time` gets each time's extraction cost ([`dynaslice_mesh::Extraction::cost`]).
+pub fn draw_model(
+    model: &dynaslice_core::Model,
+    classes: &[ClassInfo],
+    times: &[f32],
+    mesh: &dynaslice_mesh::Options,
+    options: &RenderOptions,
+    path: &Path,
+    mut on_time: impl FnMut(String),
+) -> Result<()> {
+    let channels: Vec<usize> = (0..model.num_classes()).collect();
+    let meshes = times
+        .iter()
+        .map(|&t| {
+            let extraction = dynaslice_mesh::surfaces_at(model, t, &channels, mesh, &mut on_time)?;
+            Ok(extraction.meshes)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let panels = SurfacePanel::per_time(times, &meshes);
+    dynaslice_output::write_via(path, |tmp| render_surfaces(tmp, &panels, classes, options))
 }
 
 /// Renders the class surfaces of `panels` (one per time, side by side, titled with the time)

@@ -11,6 +11,8 @@
 //!    normal velocity.
 //! 5. [`geometry`]: the [`Mesh`] type, volume, area, topology checks; [`io`]: file formats.
 //!
+//! [`model_meshes`] is the whole job of a model: its classes at several times, written to files.
+//!
 //! [`planar`] contours the same fields on a plane (closed polygons, for RT Structure Sets).
 
 #![warn(missing_docs)]
@@ -21,6 +23,7 @@ pub mod field;
 pub mod geometry;
 pub mod io;
 pub mod lattice;
+pub mod model_meshes;
 pub mod planar;
 pub mod polygonise;
 pub mod sampling;
@@ -29,6 +32,7 @@ pub mod vertices;
 pub use field::{LevelSets, PointField, Source, Surfaces};
 pub use geometry::{Mesh, Topology};
 pub use lattice::Lattice;
+pub use model_meshes::{surfaces_at, write_meshes, Meshed};
 pub use sampling::Sampling;
 
 use anyhow::Result;
@@ -70,7 +74,7 @@ impl Default for Options {
 pub const DEFAULT_NEWTON_STEPS: u32 = 1;
 
 /// What an extraction cost.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Stats {
     /// Field value evaluations (lattice vertices sampled).
     pub value_evaluations: u64,

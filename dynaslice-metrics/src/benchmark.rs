@@ -42,6 +42,18 @@ impl Default for Resolution {
     }
 }
 
+impl Resolution {
+    /// About how many bytes [`Truth`] holds for `frames` frames of `classes` classes: the
+    /// exact surfaces' samples (3 f64 each) of every frame and class, held throughout, and one
+    /// truth meshing lattice at a time (an f64 per vertex and class, and a hash-map entry).
+    pub fn truth_bytes(&self, frames: usize, classes: usize) -> f64 {
+        let classes = classes as f64;
+        let samples = frames as f64 * classes * self.samples as f64 * 24.0;
+        let lattice = (f64::from(self.truth) + 1.0).powi(3) * (8.0 * classes + 48.0);
+        samples + lattice
+    }
+}
+
 /// Area-uniform samples of the exact surfaces of one shape at every benchmark frame.
 pub struct Truth {
     shape: Shape,

@@ -17,11 +17,14 @@
 //! Nearest neighbours are exact, from `kiddo`'s immutable k-d tree: 30 000 queries against
 //! 30 000 points cost milliseconds, and its batch queries run on the rayon pool.
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use dynaslice_core::Model;
 use dynaslice_mesh::{self as mesh, Mesh, PointField, Surfaces};
+use dynaslice_model::ModelFile;
+use dynaslice_sequence::input_file::require;
 use dynaslice_synth::Shape;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use std::path::Path;
 
 /// Default samples per surface (the paper's protocol uses at least 30k).
 pub const DEFAULT_SAMPLES: usize = 30_000;
@@ -120,6 +123,42 @@ pub fn against_reference(
         &self::samples(reference, samples, 1),
         bounding_diagonal(reference),
     ))
+}
+
+/// A model's class scored against a reference mesh file ([`reference_score`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReferenceScore {
+    /// The Chamfer distance.
+    pub cd: Chamfer,
+    /// The reference's bounding-box diagonal D, its unit.
+    pub diagonal: f64,
+}
+
+/// The Chamfer distance from class `class` (1-based) of `file`'s model at time `t` to the
+/// reference mesh in the STL file `reference` (in the model's world coordinates), as
+/// [`against_reference`]. Errors name the files; a class without a surface at `t` is one.
+pub fn reference_score(
+    file: &ModelFile,
+    class: usize,
+    t: f32,
+    reference: &Path,
+    mesh_resolution: u32,
+    samples: usize,
+) -> Result<ReferenceScore> {
+    require("reference mesh", reference).map_err(anyhow::Error::msg)?;
+    let mesh = dynaslice_mesh::io::read_stl(reference)?;
+    let model = file.model();
+    let cd = against_reference(&model, class - 1, t, &mesh, mesh_resolution, samples)?;
+    let Some(cd) = cd else {
+        bail!(
+            "{}: class {class} has no surface at time {t}; no Chamfer distance",
+            file.path().display()
+        );
+    };
+    Ok(ReferenceScore {
+        cd,
+        diagonal: bounding_diagonal(&mesh),
+    })
 }
 
 /// The synthetic benchmark's exact shapes as a mesh source ([`PointField`]), to mesh the ground truth with

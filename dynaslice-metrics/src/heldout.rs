@@ -137,6 +137,42 @@ pub struct HeldOut {
     pub planes: [usize; 3],
 }
 
+/// One held-out category's scores ([`HeldOut::rows`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// The category: `spatial`, `temporal` or `spatio-temporal`.
+    pub category: &'static str,
+    /// Planes scored.
+    pub planes: usize,
+    /// The mean of the classes' IoUs that exist (`None`: none does).
+    pub mean: Option<f64>,
+    /// Each class's IoU (`None` where neither side has the class).
+    pub iou: Vec<Option<f64>>,
+}
+
+impl HeldOut {
+    /// The three categories' scores, in the order of the fields.
+    pub fn rows(&self) -> [Row; 3] {
+        let row = |category, o: &Overlap, planes| {
+            let iou = o.iou();
+            let present: Vec<f64> = iou.iter().flatten().copied().collect();
+            let mean =
+                (!present.is_empty()).then(|| present.iter().sum::<f64>() / present.len() as f64);
+            Row {
+                category,
+                planes,
+                mean,
+                iou,
+            }
+        };
+        [
+            row("spatial", &self.spatial, self.planes[0]),
+            row("temporal", &self.temporal, self.planes[1]),
+            row("spatio-temporal", &self.spatio_temporal, self.planes[2]),
+        ]
+    }
+}
+
 /// Scores `model` on the planes of `seq` (the full input) that `split` withholds, rasterising
 /// each plane's region of interest with `pixels` pixels along its longer side. The model's
 /// classes must be the input's.
@@ -282,6 +318,27 @@ pub fn plane_overlap(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each category's mean is over the classes that exist in it; none existing is no mean.
+    #[test]
+    fn rows_average_the_classes_present() {
+        let overlap = |intersection: Vec<u64>, union: Vec<u64>| Overlap {
+            intersection,
+            union,
+        };
+        let scores = HeldOut {
+            spatial: overlap(vec![1, 0], vec![2, 0]),
+            temporal: overlap(vec![1, 3], vec![4, 4]),
+            spatio_temporal: overlap(vec![0, 0], vec![0, 0]),
+            planes: [3, 4, 0],
+        };
+        let rows = scores.rows();
+        assert_eq!(rows[0].category, "spatial");
+        assert_eq!((rows[0].planes, rows[0].mean), (3, Some(0.5)));
+        assert_eq!(rows[0].iou, [Some(0.5), None]);
+        assert_eq!(rows[1].mean, Some(0.5));
+        assert_eq!((rows[2].category, rows[2].mean), ("spatio-temporal", None));
+    }
     use dynaslice_data::{Annotation, ClassInfo, Frame, Rect};
     use dynaslice_test_support::spheres::{self, Sphere, SPHERES_DOMAIN};
     use std::f64::consts::{PI, TAU};

@@ -11,8 +11,9 @@
 
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
+use dynaslice_data::TimeSeries;
 use dynaslice_mesh::{self as mesh, Surfaces};
-use dynaslice_model::RunRecord;
+use dynaslice_model::{ModelFile, RunRecord};
 use dynaslice_sequence::nesting::whole_structures;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -141,6 +142,40 @@ pub fn volume_curve_with(
     })
 }
 
+/// Times a volume curve of a moving model takes by default: its time range in this many
+/// evenly spaced steps.
+pub const DEFAULT_TIMES: usize = 20;
+
+/// The default times of a volume curve of `file`'s model: [`DEFAULT_TIMES`] evenly over its
+/// time range, both ends included; a static model's one time (its field is the same at every
+/// time).
+pub fn default_times(file: &ModelFile) -> Result<Vec<f32>> {
+    let (t0, t1) = file.model().domain().time_range();
+    if file.is_static() {
+        return Ok(vec![t0]);
+    }
+    let series = TimeSeries::across(t0, t1, DEFAULT_TIMES).map_err(anyhow::Error::msg)?;
+    // The network takes f32 times.
+    Ok(series.times().into_iter().map(|t| t as f32).collect())
+}
+
+/// The volume curve of `file`'s model ([`volume_curve_with`]) in the unit every output
+/// reports volumes in: mL for a model of millimetres, the input's plain units³ otherwise
+/// ([`ModelFile::units`]).
+pub fn class_volumes(
+    file: &ModelFile,
+    times: &[f64],
+    resolution: u32,
+    progress: impl FnMut(usize),
+) -> Result<VolumeCurve> {
+    let mut curve = volume_curve_with(&file.model(), times, resolution, progress)?;
+    let units = file.units();
+    for v in curve.volumes.iter_mut().flatten() {
+        *v = units.from_world_volume(*v);
+    }
+    Ok(curve)
+}
+
 impl VolumeCurve {
     /// CSV: a `time` column, then one column per class (its name, quoted).
     pub fn to_csv(&self) -> String {
@@ -159,6 +194,18 @@ impl VolumeCurve {
         s
     }
 
+    /// Each class's smallest and largest volume over the times.
+    pub fn ranges(&self) -> Vec<(f64, f64)> {
+        (0..self.classes.len())
+            .map(|c| {
+                self.volumes
+                    .iter()
+                    .map(|v| v[c])
+                    .fold((f64::MAX, f64::MIN), |(l, h), x| (l.min(x), h.max(x)))
+            })
+            .collect()
+    }
+
     /// Writes the CSV to `path`.
     pub fn write_csv(&self, path: &Path) -> Result<()> {
         std::fs::write(path, self.to_csv())
@@ -169,6 +216,17 @@ impl VolumeCurve {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each class's range over the times, whatever order the values come in.
+    #[test]
+    fn ranges_are_each_classes_extremes() {
+        let curve = VolumeCurve {
+            classes: vec!["a".into(), "b".into()],
+            times: vec![0.0, 0.5, 1.0],
+            volumes: vec![vec![2.0, 5.0], vec![1.0, 7.0], vec![3.0, 6.0]],
+        };
+        assert_eq!(curve.ranges(), [(1.0, 3.0), (5.0, 7.0)]);
+    }
     use dynaslice_test_support::spheres::{self, Sphere};
     use dynaslice_volume::{label_indices, VoxelGrid};
 

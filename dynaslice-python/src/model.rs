@@ -3,8 +3,8 @@
 use crate::batch::{self, Answers, PointsArg, Query, TimesArg};
 use crate::{core_error, detach_result, pool, DynasliceError};
 use dynaslice_core::{Model, ModelBytes, OwnedModel};
-use dynaslice_data::nifti::{read_geometry, read_volume};
-use dynaslice_mesh::{self as mesh, Options, Sampling, Surfaces};
+use dynaslice_data::nifti::read_volume;
+use dynaslice_mesh::{self as mesh, Options};
 use dynaslice_model::{recorded_class_colors, resolve_classes};
 use dynaslice_sequence::palette;
 use dynaslice_volume::{label_indices, source_labels, write_model_labels, VoxelGrid};
@@ -309,20 +309,7 @@ impl PyModel {
         let model = self.model();
         let channels = resolve_classes(model, &classes).map_err(PyValueError::new_err)?;
         self.check_times(&[f64::from(t)])?;
-        let options = Options {
-            resolution,
-            sampling: if dense {
-                Sampling::Dense
-            } else {
-                Sampling::Sparse { safety }
-            },
-            surfaces: if non_overlapping {
-                Surfaces::Partition
-            } else {
-                Surfaces::Overlapping
-            },
-            newton_steps,
-        };
+        let options = Options::of(resolution, dense, safety, non_overlapping, newton_steps);
         let bounds = model.domain().bounds();
         let extraction = detach_result(py, || {
             pool(threads)?.install(|| mesh::extract(model, bounds, t, &channels, &options))
@@ -364,13 +351,7 @@ impl PyModel {
         output: Option<PathBuf>,
         threads: Option<usize>,
     ) -> PyResult<(Bound<'py, PyArray1<i32>>, [usize; 3], usize)> {
-        let grid = detach_result(py, || {
-            let mut grid = VoxelGrid::like(&read_geometry(&like)?);
-            if let Some(times) = times {
-                grid.times = times;
-            }
-            Ok(grid)
-        })?;
+        let grid = detach_result(py, || VoxelGrid::like_file(&like, times))?;
         self.volume(py, grid, output, threads)
     }
 

@@ -52,6 +52,12 @@ pub fn regular_file(path: &Path) -> Result<u64> {
     }
 }
 
+/// [`regular_file`] for a file the caller names as `what` ("reference", "RT Structure Set"),
+/// refused with the one message every front end shows: `cannot read {what} {path}: {why}`.
+pub fn require(what: &str, path: &Path) -> std::result::Result<u64, String> {
+    regular_file(path).map_err(|e| format!("cannot read {what} {}: {}", path.display(), e.kind))
+}
+
 /// Opens the regular file `path` for reading (see the [module docs](self)); returns it and its
 /// size in bytes.
 pub fn open(path: &Path) -> Result<(File, u64)> {

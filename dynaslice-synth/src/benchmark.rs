@@ -35,6 +35,20 @@ pub struct BenchmarkOptions {
     pub volume_resolution: usize,
 }
 
+/// Bytes per voxel and frame of the ground truth while it is written: the i32 labels of every
+/// frame, held until written, and the writer's encoded copy.
+pub const TRUTH_BYTES_PER_VOXEL_FRAME: f64 = 8.0;
+
+impl BenchmarkOptions {
+    /// About how many bytes writing one shape's ground truth holds
+    /// ([`TRUTH_BYTES_PER_VOXEL_FRAME`] per voxel and timestep).
+    pub fn truth_bytes(&self) -> f64 {
+        (self.volume_resolution as f64).powi(3)
+            * self.timesteps as f64
+            * TRUTH_BYTES_PER_VOXEL_FRAME
+    }
+}
+
 impl Default for BenchmarkOptions {
     fn default() -> Self {
         BenchmarkOptions {
@@ -215,4 +229,53 @@ pub fn write_benchmark(
             Ok(files)
         })
         .collect()
+}
+
+/// Writes each shape's data set ([`write_benchmark`]) as `dir/<shape name>/` (`dir` created
+/// where missing), each put in place whole: written into a temporary folder inside `dir` and
+/// renamed into place once complete, so a failed run leaves no partial data set; an existing
+/// data set is removed only then. `written` gets each data set's files at their final paths.
+pub fn write_data_sets(
+    dir: &Path,
+    shapes: &[Shape],
+    options: &BenchmarkOptions,
+    mut written: impl FnMut(&[BenchmarkFiles]),
+) -> anyhow::Result<()> {
+    use anyhow::Context;
+    if !dir.exists() {
+        std::fs::create_dir(dir)
+            .with_context(|| format!("cannot create directory {}", dir.display()))?;
+    }
+    for &shape in shapes {
+        // Deleted with its contents unless renamed away (any error, or a panic).
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(".synth-");
+        // Renamed into place as the data set's folder: the mode `mkdir` gives (0777 & ~umask),
+        // not tempfile's private 0700.
+        #[cfg(unix)]
+        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o777));
+        let tmp = builder
+            .tempdir_in(dir)
+            .with_context(|| format!("cannot create a temporary folder in {}", dir.display()))?;
+        let files = write_benchmark(tmp.path(), &[shape], options)?;
+        let target = dir.join(shape.name());
+        if target.exists() {
+            std::fs::remove_dir_all(&target)
+                .with_context(|| format!("cannot remove {}", target.display()))?;
+        }
+        std::fs::rename(tmp.path().join(shape.name()), &target)
+            .with_context(|| format!("cannot rename the data set to {}", target.display()))?;
+        let moved = |p: &Path| target.join(p.file_name().unwrap_or_default());
+        let files: Vec<BenchmarkFiles> = files
+            .iter()
+            .map(|f| BenchmarkFiles {
+                shape: f.shape,
+                slices: moved(&f.slices),
+                truth: moved(&f.truth),
+                labels: moved(&f.labels),
+            })
+            .collect();
+        written(&files);
+    }
+    Ok(())
 }

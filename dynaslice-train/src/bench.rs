@@ -126,6 +126,67 @@ pub fn random_batch(k: usize, counts: &SampleCounts, seed: u64) -> Batch {
     b
 }
 
+/// One row of [`step_table`]: one class count's step by one space-time scheme.
+#[derive(Clone, Debug)]
+pub struct StepRow {
+    /// The measurement.
+    pub report: StepReport,
+    /// Whether the trainer picks this scheme for this class count
+    /// ([`SpaceTimeScheme::cheapest`]).
+    pub chosen: bool,
+    /// A picked scheme's time over the base class count's picked scheme's ([`base_classes`]);
+    /// `None` for the other scheme.
+    pub ratio: Option<f64>,
+}
+
+/// The class count a step table compares every other with: 3 where measured, else the first.
+pub fn base_classes(classes: &[usize]) -> Option<usize> {
+    match classes.contains(&3) {
+        true => Some(3),
+        false => classes.first().copied(),
+    }
+}
+
+/// The training step ([`step`]) of each class count of `classes` by both space-time schemes,
+/// in the order of `classes`, each picked scheme compared with the base class count's
+/// ([`base_classes`], measured first so that every row can be).
+pub fn step_table(
+    widths: &[u32],
+    classes: &[usize],
+    counts: &SampleCounts,
+    threads: usize,
+    repeats: usize,
+) -> Vec<StepRow> {
+    let Some(base_k) = base_classes(classes) else {
+        return Vec::new();
+    };
+    let mut base = None;
+    let mut rows = Vec::new();
+    let order = std::iter::once(base_k).chain(classes.iter().copied().filter(|&k| k != base_k));
+    for k in order {
+        for scheme in [
+            SpaceTimeScheme::ReverseOverReverse,
+            SpaceTimeScheme::ForwardTangents,
+        ] {
+            let report = step(widths, k, scheme, counts, threads, repeats);
+            let chosen = scheme == SpaceTimeScheme::cheapest(k);
+            if chosen && k == base_k {
+                base = Some(report.seconds);
+            }
+            rows.push((k, chosen, report));
+        }
+    }
+    classes
+        .iter()
+        .flat_map(|&k| rows.iter().filter(move |row| row.0 == k))
+        .map(|(_, chosen, report)| StepRow {
+            report: report.clone(),
+            chosen: *chosen,
+            ratio: base.filter(|_| *chosen).map(|b| report.seconds / b),
+        })
+        .collect()
+}
+
 /// Median time of a training step (loss, gradient; no sampling) at `widths` with K classes,
 /// space-time gradients by `scheme`, samples drawn by `counts`.
 pub fn step(

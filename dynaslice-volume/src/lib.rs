@@ -16,10 +16,14 @@
 //! `.seq.nrrd` sequence Slicer's Sequences module loads ([`dynaslice_data::nrrd::SequenceWriter`]).
 //! Class colours are the model input's where recorded, else the one palette's
 //! ([`dynaslice_sequence::palette`]).
+//!
+//! The same labels on a reference geometry's planes, as DICOM RT Structure Sets for a
+//! treatment planning system: [`rtstruct`] (`dynaslice rtstruct`).
 
 #![warn(missing_docs)]
 
 pub mod pruned;
+pub mod rtstruct;
 pub mod voxel_grid;
 
 use dynaslice_data::color_table::{stage_tables, table_paths};
@@ -29,10 +33,11 @@ use dynaslice_data::nrrd::{
 };
 use dynaslice_data::ClassInfo;
 pub use pruned::{Evaluation, PruneStats, DEFAULT_SAFETY};
-pub use voxel_grid::VoxelGrid;
+pub use voxel_grid::{is_nifti, VoxelGrid};
 
 use anyhow::{bail, Result};
 use dynaslice_core::{Model, Scratch, UNDEFINED_LABEL};
+use dynaslice_model::ModelFile;
 use dynaslice_output::OutputSet;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -177,6 +182,92 @@ pub fn output_files(path: &Path, frames: usize, companions: bool) -> Vec<PathBuf
     files
 }
 
+impl WriteOptions {
+    /// The options of a label volume of `file`'s model with its colour tables or sequence:
+    /// `evaluation`, and the classes' colours its training input had where it records them.
+    pub fn for_model(file: &ModelFile, evaluation: Evaluation) -> WriteOptions {
+        WriteOptions {
+            evaluation,
+            colors: file.classes().into_iter().map(|c| c.color).collect(),
+            companions: true,
+        }
+    }
+}
+
+/// Bytes per voxel while a frame is labelled and written: a u32 class index and an i32 label
+/// per voxel ([`write_model_labels_with`]), and up to 4 more for the frame's encoded copy (2 in
+/// the NIfTI writer, up to 4 in a `.seg.nrrd` of labels beyond 16 bits; the sequence is
+/// compressed in chunks).
+pub const BYTES_PER_VOXEL: f64 = 12.0;
+
+/// About how many bytes writing `grid`'s label volume holds at once: one frame's
+/// [`BYTES_PER_VOXEL`] per voxel.
+pub fn working_bytes(grid: &VoxelGrid) -> f64 {
+    grid.dims.iter().map(|&n| n as f64).product::<f64>() * BYTES_PER_VOXEL
+}
+
+/// Applies the model's one time rule to `grid`'s frames: a static model (the same labels at
+/// every time) keeps only the first frame, and the number of frames dropped is returned; a
+/// moving model's frames must lie in its time range (never extrapolated), each named in the
+/// error by `option` ([`ModelFile::check_times`]).
+pub fn fit_times(file: &ModelFile, grid: &mut VoxelGrid, option: &str) -> Result<usize> {
+    if file.is_static() {
+        let dropped = grid.times.len().saturating_sub(1);
+        grid.times.truncate(1);
+        return Ok(dropped);
+    }
+    file.check_times(option, grid.times.iter().copied())?;
+    Ok(0)
+}
+
+/// Each frame's class volumes from the label `counts` of [`write_model_labels_with`] (index 0
+/// the background, skipped), in the unit every output reports volumes in: mL for a model of
+/// millimetres, the input's plain units³ otherwise ([`ModelFile::units`]).
+pub fn class_volumes(file: &ModelFile, grid: &VoxelGrid, counts: &[Vec<u64>]) -> Vec<Vec<f64>> {
+    let (voxel, units) = (grid.voxel_volume(), file.units());
+    counts
+        .iter()
+        .map(|frame| {
+            frame[1..]
+                .iter()
+                .map(|&n| units.from_world_volume(n as f64 * voxel))
+                .collect()
+        })
+        .collect()
+}
+
+/// The written `files` ([`output_files`]) in words: the volume (a series of frames by its
+/// first and last), and the companion files, each named with what it is for.
+pub fn describe_files(files: &[PathBuf]) -> (String, Vec<String>) {
+    let (volume, companions): (Vec<&PathBuf>, Vec<&PathBuf>) = files
+        .iter()
+        .partition(|p| is_segmentation(p) || is_nifti(p));
+    let volume = match volume[..] {
+        [one] => one.display().to_string(),
+        [first, .., last] => format!(
+            "{} … {} (a segmentation per frame)",
+            first.display(),
+            last.display()
+        ),
+        [] => String::new(),
+    };
+    let companions = companions
+        .iter()
+        .map(|p| {
+            let name = p.to_string_lossy().to_ascii_lowercase();
+            let what = if name.ends_with(".ctbl") {
+                "3D Slicer colour table"
+            } else if name.ends_with(".label.txt") {
+                "ITK-SNAP label descriptions"
+            } else {
+                "3D Slicer sequence of the frames"
+            };
+            format!("{} ({what})", p.display())
+        })
+        .collect();
+    (volume, companions)
+}
+
 /// Writes `model`'s label volume on `grid` to `path` (`.nii` or `.nii.gz`: one NIfTI, a frame
 /// per time; `.seg.nrrd`: a 3D Slicer segmentation per frame, named by
 /// [`dynaslice_data::nrrd::frame_path`], with the classes' names and palette colours) by the
@@ -289,6 +380,31 @@ pub fn write_model_labels_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The summary names the volume (a series by its first and last frame) and what each
+    /// companion file is for.
+    #[test]
+    fn written_files_are_described_by_kind() {
+        let (volume, companions) = describe_files(&output_files(Path::new("v.nii.gz"), 3, true));
+        assert_eq!(volume, "v.nii.gz");
+        assert_eq!(
+            companions,
+            [
+                "v.ctbl (3D Slicer colour table)",
+                "v.label.txt (ITK-SNAP label descriptions)"
+            ]
+        );
+        let (volume, companions) = describe_files(&output_files(Path::new("s.seg.nrrd"), 3, true));
+        assert_eq!(
+            volume,
+            "s_t0.seg.nrrd … s_t2.seg.nrrd (a segmentation per frame)"
+        );
+        assert_eq!(
+            companions,
+            ["s.seq.nrrd (3D Slicer sequence of the frames)"]
+        );
+        assert!(is_nifti(Path::new("A.NII")) && !is_nifti(Path::new("a.nrrd")));
+    }
     use dynaslice_data::nifti::read_volume;
     use dynaslice_data::TimeSeries;
     use dynaslice_test_support::spheres::Sphere;

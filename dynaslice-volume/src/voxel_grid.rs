@@ -1,7 +1,11 @@
 //! The sampling grid of a label volume: voxels, their world positions and the frame times.
 
 use anyhow::{bail, ensure, Result};
+use dynaslice_core::Model;
 use dynaslice_data::label_volume::Geometry;
+use dynaslice_data::TimeSeries;
+use dynaslice_sequence::input_file::require;
+use std::path::Path;
 
 /// Fewest voxels along the longest side of a mask ([`VoxelGrid::for_mask`]): a coarser mask
 /// is a few blocks, not a shape.
@@ -19,7 +23,92 @@ pub struct VoxelGrid {
     pub times: Vec<f64>,
 }
 
+/// Voxels along the longest side of the box where no spacing is given ([`VoxelGrid::over_model`]).
+pub const DEFAULT_VOXELS: usize = 128;
+/// Frames over a moving model's time range where no times are given ([`VoxelGrid::over_model`]).
+pub const DEFAULT_FRAMES: usize = 10;
+
+/// Whether `path` names a NIfTI image (`.nii`, `.nii.gz`, any case): the one kind of file
+/// whose header gives a label volume its grid ([`VoxelGrid::like_file`]).
+pub fn is_nifti(path: &Path) -> bool {
+    let name = path.to_string_lossy().to_ascii_lowercase();
+    name.ends_with(".nii") || name.ends_with(".nii.gz")
+}
+
 impl VoxelGrid {
+    /// The grid of the NIfTI image at `reference` ([`VoxelGrid::like`]), from its header alone
+    /// (its voxels are never needed, and its size is known before anything is allocated for
+    /// it, so any voxel type will do), with `times` instead of its frames' where given. Errors
+    /// name the file as the command line's `--like` (Python's `like`); another kind of file
+    /// is refused with what to give instead.
+    pub fn like_file(reference: &Path, times: Option<Vec<f64>>) -> Result<VoxelGrid> {
+        require("reference", reference).map_err(anyhow::Error::msg)?;
+        if !is_nifti(reference) {
+            bail!(
+                "--like {}: not a NIfTI image (.nii, .nii.gz), so it has no voxel grid to label \
+                 on; give --bounds and --spacing (or neither: the model's domain at \
+                 {DEFAULT_VOXELS} voxels along its longest side), or a NIfTI image of the same \
+                 subject",
+                reference.display()
+            );
+        }
+        let mut grid = VoxelGrid::like(&dynaslice_data::nifti::read_geometry(reference)?);
+        if let Some(times) = times {
+            grid.times = times;
+        }
+        Ok(grid)
+    }
+
+    /// The grid over the box `bounds` (X0, Y0, Z0, X1, Y1, Z1; default: the model's domain)
+    /// with voxel size `spacing` (one value, or one per axis; default: cubic,
+    /// [`DEFAULT_VOXELS`] along the box's longest side), at `times` (default:
+    /// [`DEFAULT_FRAMES`] evenly over the model's time range, a static model's one time). A
+    /// voxel wider than the box along every axis is refused: one voxel of nothing is a
+    /// mistyped value. Errors name the values by the command line's options.
+    pub fn over_model(
+        model: &Model,
+        is_static: bool,
+        bounds: Option<&[f64]>,
+        spacing: Option<&[f64]>,
+        times: Option<Vec<f64>>,
+    ) -> Result<VoxelGrid> {
+        let (lo, hi) = match bounds {
+            Some(&[x0, y0, z0, x1, y1, z1]) => ([x0, y0, z0], [x1, y1, z1]),
+            Some(b) => bail!("--bounds takes 6 values X0,Y0,Z0,X1,Y1,Z1, not {}", b.len()),
+            None => {
+                let (lo, hi) = model.domain().bounds();
+                (lo.map(f64::from), hi.map(f64::from))
+            }
+        };
+        let spacing = match spacing {
+            Some(&[s]) => [s; 3],
+            Some(&[x, y, z]) => [x, y, z],
+            Some(other) => bail!("--spacing takes 1 or 3 values, not {}", other.len()),
+            None => {
+                let longest = (0..3).map(|i| hi[i] - lo[i]).fold(0.0, f64::max);
+                [longest / DEFAULT_VOXELS as f64; 3]
+            }
+        };
+        if (0..3).all(|i| spacing[i] > hi[i] - lo[i]) {
+            bail!(
+                "--spacing {spacing:?} is wider than the box (sides {:?}, {lo:?} to {hi:?}) along \
+                 every axis: the volume would be a single voxel",
+                [0, 1, 2].map(|i| hi[i] - lo[i])
+            );
+        }
+        let times = match times {
+            Some(times) => times,
+            None if is_static => vec![f64::from(model.domain().time_range().0)],
+            None => {
+                let (t0, t1) = model.domain().time_range();
+                TimeSeries::across(t0, t1, DEFAULT_FRAMES)
+                    .map_err(anyhow::Error::msg)?
+                    .times()
+            }
+        };
+        VoxelGrid::from_bounds(lo, hi, spacing, times)
+    }
+
     /// The grid of a reference volume: same dimensions, affine and frames, frame f at time
     /// time origin + f · frame interval (NIfTI's `toffset` and `pixdim[4]`), the times the
     /// readers give a volume's frames when it trains on it ([`dynaslice_data::input`]), so a

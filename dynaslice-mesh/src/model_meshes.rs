@@ -1,0 +1,224 @@
+//! The whole meshing job of a model (`dynaslice mesh`; `picture --3d` shares its extraction):
+//! the surfaces of some classes at each of some times, over the model's bounds, written to
+//! [`MeshFiles`], with what each step cost and made.
+
+use crate::io::MeshFiles;
+use crate::{extract, Extraction, Mesh, Options, Sampling, Stats, Surfaces};
+use anyhow::Result;
+use dynaslice_core::Model;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+impl Options {
+    /// The options of the command line's flags and Python's keywords, by the same names:
+    /// `dense` sampling (else sparse with `safety`), `non_overlapping` surfaces (the Eq. 11
+    /// partition's boundaries, else each class's own level set).
+    pub fn of(
+        resolution: u32,
+        dense: bool,
+        safety: f32,
+        non_overlapping: bool,
+        newton_steps: u32,
+    ) -> Options {
+        Options {
+            resolution,
+            sampling: match dense {
+                true => Sampling::Dense,
+                false => Sampling::Sparse { safety },
+            },
+            surfaces: match non_overlapping {
+                true => Surfaces::Partition,
+                false => Surfaces::Overlapping,
+            },
+            newton_steps,
+        }
+    }
+
+    /// About how many bytes dense sampling of `classes` classes holds: K f32 per lattice
+    /// vertex, its hash-map entry and cell list (about 48 bytes per vertex), for the
+    /// (resolution + 1)³ vertices of a cube. Sparse sampling holds a small part of it.
+    pub fn dense_bytes(&self, classes: usize) -> f64 {
+        let vertices = (f64::from(self.resolution) + 1.0).powi(3);
+        vertices * (4.0 * classes as f64 + 48.0)
+    }
+}
+
+impl std::ops::AddAssign for Stats {
+    fn add_assign(&mut self, other: Stats) {
+        self.value_evaluations += other.value_evaluations;
+        self.jacobian_evaluations += other.jacobian_evaluations;
+        self.dense_evaluations += other.dense_evaluations;
+        self.cells += other.cells;
+    }
+}
+
+impl Stats {
+    /// How many times fewer values than a dense grid's were evaluated.
+    pub fn saving(&self) -> f64 {
+        self.dense_evaluations as f64 / self.value_evaluations.max(1) as f64
+    }
+}
+
+impl Extraction {
+    /// One line on the cost of the extraction at time `t` that took `seconds`: the lattice,
+    /// the evaluations against a dense grid's.
+    pub fn cost(&self, t: f32, seconds: f64) -> String {
+        let (lattice, stats) = (&self.lattice, &self.stats);
+        format!(
+            "t = {t}: {}x{}x{} cells of {:.4}, {} value + {} jacobian evaluations (dense grid: \
+             {} values, {:.1}x more), {seconds:.2} s",
+            lattice.cells[0],
+            lattice.cells[1],
+            lattice.cells[2],
+            lattice.h,
+            stats.value_evaluations,
+            stats.jacobian_evaluations,
+            stats.dense_evaluations,
+            stats.saving()
+        )
+    }
+}
+
+impl std::fmt::Display for Stats {
+    /// The evaluations against a dense grid's.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} value + {} jacobian evaluations (dense: {} values, {:.1}x more)",
+            self.value_evaluations,
+            self.jacobian_evaluations,
+            self.dense_evaluations,
+            self.saving()
+        )
+    }
+}
+
+impl Mesh {
+    /// One line on the mesh: vertices, triangles, enclosed volume and area, and its topology
+    /// where it is not a closed manifold.
+    pub fn summary(&self) -> String {
+        let topology = self.topology();
+        format!(
+            "{} vertices, {} triangles, volume {:.6}, area {:.6}{}",
+            self.positions.len(),
+            self.triangles.len(),
+            self.enclosed_volume(),
+            self.area(),
+            if topology.is_closed_manifold() {
+                String::new()
+            } else {
+                format!(" (NOT a closed manifold: {topology:?})")
+            }
+        )
+    }
+}
+
+/// The surfaces of `classes` (0-based channels) of `model` at world time `t` over its bounds;
+/// `report` gets the line on their cost ([`Extraction::cost`]).
+pub fn surfaces_at(
+    model: &Model,
+    t: f32,
+    classes: &[usize],
+    options: &Options,
+    report: impl FnOnce(String),
+) -> Result<Extraction> {
+    let start = Instant::now();
+    let extraction = extract(model, model.domain().bounds(), t, classes, options)?;
+    report(extraction.cost(t, start.elapsed().as_secs_f64()));
+    Ok(extraction)
+}
+
+/// One step of [`write_meshes`].
+pub enum Meshed<'a> {
+    /// The surfaces at one time are extracted.
+    Extracted {
+        /// One line on its cost ([`Extraction::cost`]).
+        cost: String,
+    },
+    /// One class's mesh at that time is staged.
+    Staged {
+        /// The class (0-based channel).
+        class: usize,
+        /// Its name.
+        name: &'a str,
+        /// Its mesh.
+        mesh: &'a Mesh,
+        /// Where it goes.
+        path: &'a Path,
+    },
+    /// Every class at that time is staged.
+    Done,
+}
+
+impl Meshed<'_> {
+    /// The step's line for a log: the extraction's cost, or the class's mesh (its number and
+    /// name, [`Mesh::summary`], where it goes); `None` at the end of a time.
+    pub fn line(&self) -> Option<String> {
+        match self {
+            Meshed::Extracted { cost } => Some(cost.clone()),
+            Meshed::Staged {
+                class,
+                name,
+                mesh,
+                path,
+            } => Some(format!(
+                "  class {} ({name}): {} -> {}",
+                class + 1,
+                mesh.summary(),
+                path.display()
+            )),
+            Meshed::Done => None,
+        }
+    }
+}
+
+/// Every file [`write_meshes`] writes to `files` for `times` times of `classes`: the meshes
+/// and the collection, so a caller can check them all before any work.
+pub fn planned_paths(
+    model: &Model,
+    files: &MeshFiles,
+    times: usize,
+    classes: &[usize],
+) -> Vec<PathBuf> {
+    let names: Vec<&str> = model.classes().map(|c| c.name).collect();
+    (0..times)
+        .flat_map(|i| classes.iter().map(move |&k| (i, k)))
+        .map(|(i, k)| files.path(i, k, names[k]))
+        .chain(files.collection())
+        .collect()
+}
+
+/// Meshes `classes` (0-based channels) of `model` at each of `times` over its bounds and
+/// stages each mesh in `files` with its class's name, label and colour (`colors`, one per
+/// class of the model); `step` hears of each extraction and mesh. Returns the summed cost.
+/// Nothing is in place until [`MeshFiles::finish`].
+pub fn write_meshes(
+    model: &Model,
+    times: &[f32],
+    classes: &[usize],
+    colors: &[[u8; 3]],
+    options: &Options,
+    files: &mut MeshFiles,
+    mut step: impl FnMut(Meshed),
+) -> Result<Stats> {
+    let mut total = Stats::default();
+    for (i, &t) in times.iter().enumerate() {
+        let extraction = surfaces_at(model, t, classes, options, |cost| {
+            step(Meshed::Extracted { cost })
+        })?;
+        total += extraction.stats;
+        for (mesh, &k) in extraction.meshes.iter().zip(classes) {
+            let class = model.class(k as u32 + 1)?;
+            let path = files.path(i, k, class.name);
+            step(Meshed::Staged {
+                class: k,
+                name: class.name,
+                mesh,
+                path: &path,
+            });
+            files.write(i, t, k, class, colors[k], mesh)?;
+        }
+        step(Meshed::Done);
+    }
+    Ok(total)
+}
