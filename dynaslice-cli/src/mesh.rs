@@ -16,8 +16,6 @@ use dynaslice_data::TimeSeries;
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use dynaslice_mesh::model_meshes::planned_paths;
-// `report.rs` meshes through this path.
-pub(crate) use dynaslice_mesh::surfaces_at;
 use dynaslice_mesh::{self as mesh, Options, DEFAULT_SAFETY};
 use dynaslice_model::ModelFile;
 use dynaslice_output::{Kind, Plan};

@@ -317,3 +317,55 @@ fn report_is_self_contained_matches_the_csv_and_opens_in_chromium() {
     let distinct: std::collections::HashSet<[u8; 3]> = png.pixels().map(|p| p.0).collect();
     assert!(distinct.len() > 50, "{} colours", distinct.len());
 }
+
+/// The still lung is reported rigid (stderr, JSON, report), the growing tumour by its volume
+/// change, with no ejection fraction or stroke volume named for either outside the cardiac
+/// note and the JSON's kept keys.
+#[test]
+fn still_classes_are_rigid_and_growing_ones_change_in_measure_and_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write_model(dir.path(), "m.dsm", NIFTI_INPUT);
+    let common = ["--times", TIMES, "--resolution", "48"];
+    let mut args = vec!["measure", s(&model), "--json"];
+    args.extend(common);
+    let out = dynaslice(&args);
+    let json: Value = serde_json::from_str(&succeeded(&out)).unwrap();
+    let (tumour, lung) = (&json["classes"][0], &json["classes"][1]);
+    assert_eq!(
+        (tumour["rigid"].as_bool(), lung["rigid"].as_bool()),
+        (Some(false), Some(true))
+    );
+    assert!(tumour["relative_volume_change"].as_f64().unwrap() > 0.1);
+    assert_eq!(
+        tumour["relative_volume_change"],
+        tumour["ejection_fraction"]
+    );
+    assert_eq!(tumour["volume_change"], tumour["stroke_volume"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let line = |name: &str| {
+        stderr
+            .lines()
+            .find(|l| l.starts_with(&format!("  \"{name}\":")))
+            .unwrap_or_else(|| panic!("no line for {name}: {stderr}"))
+            .to_string()
+    };
+    assert!(line("lung").contains("rigid: volume") && line("lung").contains("within 5 %"));
+    assert!(line("tumour").contains("change ") && !line("tumour").contains("rigid"));
+    for l in [line("lung"), line("tumour")] {
+        assert!(!l.contains("EF") && !l.contains("stroke"), "{l}");
+    }
+
+    let html_path = dir.path().join("r.html");
+    let mut args = vec!["report", s(&model), "-o", s(&html_path)];
+    args.extend(common);
+    succeeded(&dynaslice(&args));
+    let html = std::fs::read_to_string(&html_path).unwrap();
+    // The cycle table: the lung's row says rigid, the tumour's changes.
+    let cycle = &html[html.find("volume change (mL)").unwrap()..];
+    for (name, word) in [("tumour", "changes"), ("lung", "rigid")] {
+        let row = &cycle[cycle.find(&format!("<td>{name}</td>")).unwrap()..];
+        let row = &row[..row.find("</tr>").unwrap()];
+        assert!(row.contains(&format!("<td>{word}</td>")), "{name}: {row}");
+    }
+    assert!(!html.contains("ejection fraction</th>"));
+}

@@ -3,13 +3,155 @@
 //! `dynaslice_volume::label_indices`) and as a closed mesh (the mesher on the field whose
 //! negative set is that union: at each point, the minimum over the times of the class's
 //! partition field, [`dynaslice_mesh::LevelSets`]). Both are over the same times, so a time
-//! missing from the list is missing from both.
+//! missing from the list is missing from both. [`write_itv`] writes them per class as a NIfTI
+//! mask with colour tables and a PLY mesh (`dynaslice measure --itv DIR`).
 
-use anyhow::{ensure, Result};
+use crate::measurement::Measurement;
+use anyhow::{bail, ensure, Result};
 use dynaslice_core::Model;
+use dynaslice_data::color_table::{stage_tables, table_paths};
+use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
+use dynaslice_data::ClassInfo;
 use dynaslice_mesh::field::LevelScratch;
+use dynaslice_mesh::io::{self as mesh_io, class_tag, Format, MeshInfo, Space};
 use dynaslice_mesh::{self as mesh, LevelSets, Mesh, Sampling, Source, Surfaces};
+use dynaslice_output::OutputSet;
 use dynaslice_volume::{label_indices, VoxelGrid};
+use std::path::{Path, PathBuf};
+
+/// Voxels along the longest side of the model's domain of an ITV mask by default.
+pub const DEFAULT_ITV_VOXELS: f64 = 128.0;
+
+/// One class's ITV files in a folder.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ItvFiles {
+    /// The NIfTI mask `classK_NAME.itv.nii.gz` (its colour tables beside it).
+    pub mask: PathBuf,
+    /// The closed surface `classK_NAME.itv.ply`.
+    pub mesh: PathBuf,
+}
+
+/// The ITV files of each class (channel order) in `dir`.
+pub fn itv_files(dir: &Path, classes: &[ClassInfo]) -> Vec<ItvFiles> {
+    classes
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            let tag = class_tag(k, &c.name);
+            ItvFiles {
+                mask: dir.join(format!("{tag}.itv.nii.gz")),
+                mesh: dir.join(format!("{tag}.itv.ply")),
+            }
+        })
+        .collect()
+}
+
+/// The ITV masks' grid over `model`'s domain at `time`: `spacing` (given with `option`;
+/// default [`DEFAULT_ITV_VOXELS`] voxels along the longest side) checked against the domain
+/// ([`VoxelGrid::for_mask`]).
+pub fn itv_grid(model: &Model, option: &str, spacing: Option<f64>, time: f64) -> Result<VoxelGrid> {
+    let (lo, hi) = model.domain().bounds();
+    let (lo, hi) = (lo.map(f64::from), hi.map(f64::from));
+    let spacing = spacing.unwrap_or_else(|| {
+        let longest = (0..3).map(|i| hi[i] - lo[i]).fold(0.0, f64::max);
+        longest / DEFAULT_ITV_VOXELS
+    });
+    VoxelGrid::for_mask(option, lo, hi, spacing, time)
+}
+
+/// Bytes the masks of [`write_itv`] hold on `grid` for `classes` classes: a byte per voxel and
+/// class, and the written frame's 4 bytes per voxel (an estimate to check against the
+/// memory available before any work).
+pub fn itv_bytes(grid: &VoxelGrid, classes: usize) -> f64 {
+    grid.voxels_per_frame() as f64 * (classes as f64 + 4.0)
+}
+
+/// What [`write_itv`] wrote for one class: its ITV's volume by the mask's voxels and enclosed by
+/// its mesh (world units cubed).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ItvVolumes {
+    /// Voxels of the mask times the voxel volume.
+    pub by_voxels: f64,
+    /// The mesh's enclosed volume.
+    pub enclosed: f64,
+}
+
+/// Writes each class's ITV over `m`'s times into `files` (from [`itv_files`], in `dir`, made if
+/// missing): the mask on `grid` (named `option` in messages) with its colour tables, the mesh
+/// of `resolution` cells (PLY, LPS), all files or none ([`OutputSet`]). `done` is called after
+/// each time's labels and after the meshing (times + 1 calls: a minute or more on a busy
+/// machine). A class in no voxel of its mask is an error and nothing is written.
+pub fn write_itv(
+    model: &Model,
+    m: &Measurement,
+    resolution: u32,
+    (grid, option): (&VoxelGrid, &str),
+    dir: &Path,
+    files: &[ItvFiles],
+    mut done: impl FnMut(),
+) -> Result<Vec<ItvVolumes>> {
+    let times = &m.motion.times;
+    let mut set = OutputSet::new();
+    set.create_dir(dir)?;
+    let masks = itv_masks(model, grid, times, &mut done)?;
+    let options = mesh::Options {
+        resolution,
+        ..mesh::Options::default()
+    };
+    let meshes = itv_meshes(model, model.domain().bounds(), times, &options)?;
+    done();
+    let mut volumes = Vec::with_capacity(m.classes.len());
+    for (k, c) in m.classes.iter().enumerate() {
+        let ItvFiles { mask, mesh } = &files[k];
+        let header = VolumeHeader {
+            dims: grid.dims,
+            frames: 1,
+            affine: grid.affine,
+            frame_interval: 1.0,
+            time_offset: times[0],
+            label_range: (0.min(c.label), 0.max(c.label)),
+            description: "dynaslice ITV (union over the measured times)".into(),
+        };
+        let labels: Vec<i32> = masks[k]
+            .iter()
+            .map(|&i| if i { c.label } else { 0 })
+            .collect();
+        let voxels = labels.iter().filter(|&&l| l != 0).count();
+        if voxels == 0 {
+            bail!(
+                "{}: class {:?} is in no voxel of the ITV mask at {option} {}; nothing \
+                 written",
+                mask.display(),
+                c.name,
+                grid.affine[0][0]
+            );
+        }
+        let mut stream = NiftiStream::create(mask, &header)?;
+        stream.write_frame(&labels)?;
+        stream.finish_into(&mut set)?;
+        let (ctbl, label) = table_paths(mask);
+        stage_tables(
+            &mut set,
+            &ctbl,
+            &label,
+            std::slice::from_ref(&ClassInfo {
+                color: Some(m.colors[k]),
+                ..c.clone()
+            }),
+        )?;
+        let info = MeshInfo::new(&c.name, Space::Lps)
+            .with_label(c.label)
+            .with_color(m.colors[k]);
+        let bytes = mesh_io::encode(&meshes[k], Format::Ply, &info)?;
+        set.write(mesh, &bytes)?;
+        volumes.push(ItvVolumes {
+            by_voxels: voxels as f64 * grid.voxel_volume(),
+            enclosed: meshes[k].enclosed_volume(),
+        });
+    }
+    set.commit()?;
+    Ok(volumes)
+}
 
 /// Per class (model order), whether each voxel of `grid` (x fastest) is labelled that class at
 /// any of `times`; `done` is called after each time (a front end's progress).

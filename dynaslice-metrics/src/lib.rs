@@ -6,8 +6,12 @@
 //! - [`inside`]: 3D IoU against a reference triangle mesh (inside cells by ray parity).
 //! - [`heldout`]: 2D IoU on withheld planes and frames (spatial, temporal, spatio-temporal).
 //! - [`volume`]: each class's volume over time.
-//! - [`itv`]: the internal target volume, a class's union over a cycle, as a mask and a mesh.
-//! - [`motion`]: per class over a cycle: volumes, centroids, amplitudes, ejection fraction.
+//! - [`itv`]: the internal target volume, a class's union over a cycle, as a mask and a mesh,
+//!   and their files.
+//! - [`motion`]: per class over a cycle: volumes, centroids, amplitudes, the volume change (or
+//!   rigid).
+//! - [`measurement`]: a model file measured at its times, with its units, patient frame and
+//!   classes: what `dynaslice measure` prints and writes and the report shows.
 //! - [`support`]: components of a class that the input's contours do not support.
 //! - [`extent`]: classes whose extent or volume the data does not support (spurious structure).
 

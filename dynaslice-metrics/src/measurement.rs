@@ -2,39 +2,86 @@
 //! units and patient frame, the classes' names, labels and colours): what `dynaslice measure`
 //! prints and writes and `dynaslice report` shows, in one typed value.
 
-use crate::motion::{round, Cycle, Frame, Motion, Units};
+use crate::motion::{self, reported_space, round, Cycle, Motion, Space, Units, RIGID_WITHIN};
 use anyhow::Result;
 use dynaslice_core::Model;
-use dynaslice_data::ClassInfo;
+use dynaslice_data::{ClassInfo, TimeSeries};
+use dynaslice_model::ModelFile;
 use dynaslice_sequence::palette;
 use serde_json::{json, Value};
 use std::path::Path;
 
-/// What the figures of a model mean: its input's units and frame (from its run record) and its
+/// Times measured by default over a moving model's time range.
+pub const DEFAULT_TIMES: usize = 21;
+
+/// What the figures of a model mean: its input's units and patient frame (from its run record) and its
 /// classes.
 pub struct Described {
     /// The input's units.
     pub units: Units,
-    /// The input's patient frame.
-    pub frame: Frame,
+    /// The input's patient frame; `None` where its axes have no anatomical meaning
+    /// ([`reported_space`]).
+    pub space: Option<Space>,
     /// Names, source labels and recorded colours, channel order.
     pub classes: Vec<ClassInfo>,
     /// Display colour per class (recorded or the palette's).
     pub colors: Vec<[u8; 3]>,
 }
 
+impl Described {
+    /// What `file`'s run record says its figures mean ([`dynaslice_model::RunRecord`]: plain
+    /// units, LPS where it records none).
+    pub fn of(file: &ModelFile) -> Described {
+        let units = file.units();
+        Described {
+            units,
+            space: reported_space(units, file.space()),
+            classes: file.classes(),
+            colors: file.class_colors(),
+        }
+    }
+}
+
 /// A model measured at its times, with what the numbers mean.
 pub struct Measurement {
     /// The figures, in the model's RAS world and units.
     pub motion: Motion,
+    /// Meshing lattice cells along the longest axis of the model's domain they were measured
+    /// with.
+    pub resolution: u32,
     /// The input's units.
     pub units: Units,
-    /// The input's patient frame.
-    pub frame: Frame,
+    /// The input's patient frame; `None` where its axes have no anatomical meaning (reported
+    /// as the world's x, y, z).
+    pub space: Option<Space>,
     /// Names, source labels and recorded colours, channel order.
     pub classes: Vec<ClassInfo>,
     /// Display colour per class (recorded or the palette's).
     pub colors: Vec<[u8; 3]>,
+}
+
+/// The times to measure `file` at: `requested` (named `option` in messages, e.g. `--times`),
+/// each checked against the model's range, or by default [`DEFAULT_TIMES`] times over a
+/// moving model's range, a static model's one time.
+pub fn times_of(
+    file: &ModelFile,
+    requested: Option<&TimeSeries>,
+    option: &str,
+) -> Result<Vec<f64>> {
+    let times = match requested {
+        Some(series) => series.times(),
+        None if file.is_static() => vec![f64::from(file.time(option, None)?)],
+        None => {
+            let (t0, t1) = file.model().domain().time_range();
+            TimeSeries::across(t0, t1, DEFAULT_TIMES)
+                .map_err(anyhow::Error::msg)?
+                .times()
+        }
+    };
+    for &t in &times {
+        file.check_time(option, t as f32)?;
+    }
+    Ok(times)
 }
 
 impl Measurement {
@@ -50,21 +97,75 @@ impl Measurement {
         let motion = Motion::measure(model, times, resolution, measured)?;
         Ok(Measurement {
             motion,
+            resolution,
             units: what.units,
-            frame: what.frame,
+            space: what.space,
             classes: what.classes,
             colors: what.colors,
         })
     }
+
+    /// Measures every class of `file` at `times` with meshes of `resolution` cells, in the units
+    /// and frame its run record gives ([`Described::of`]); `measured` after each time.
+    pub fn of_file(
+        file: &ModelFile,
+        times: &[f64],
+        resolution: u32,
+        measured: impl FnMut(),
+    ) -> Result<Measurement> {
+        Self::measure(
+            &file.model(),
+            times,
+            resolution,
+            Described::of(file),
+            measured,
+        )
+    }
+
+    /// The name of the frame positions are given in: `LPS`, `RAS` or `xyz`.
+    pub fn space_name(&self) -> &'static str {
+        motion::space_name(self.space)
+    }
+
+    /// What the positive direction of each axis points to (`L`, `P`, `S` in LPS).
+    pub fn positive(&self) -> [&'static str; 3] {
+        motion::positive(self.space)
+    }
+
+    /// Whether the axes are anatomical (x left–right, y anterior–posterior, z
+    /// superior–inferior).
+    pub fn is_anatomical(&self) -> bool {
+        self.space.is_some()
+    }
+
+    /// Short names of the axes: `LR`, `AP`, `SI`, or `x`, `y`, `z` where not anatomical.
+    pub fn axis_names(&self) -> [&'static str; 3] {
+        if self.is_anatomical() {
+            ["LR", "AP", "SI"]
+        } else {
+            ["x", "y", "z"]
+        }
+    }
+
+    /// A point of the model's RAS world in the reported frame.
+    pub fn from_world(&self, p: [f64; 3]) -> [f64; 3] {
+        motion::from_world(self.space, p)
+    }
+
+    /// The time axis's name ([`time_axis`]).
+    pub fn time_axis(&self) -> &'static str {
+        time_axis(self.space)
+    }
 }
 
-/// The time axis's name for `frame`'s inputs: NIfTI frames are seconds apart
-/// (`pixdim[4]`), a DICOM manifest's times are its own (often % of the breathing cycle).
-pub fn time_axis(frame: Frame) -> &'static str {
-    match frame {
-        Frame::Ras => "time (s)",
-        Frame::Lps => "time (manifest)",
-        Frame::Plain => "time",
+/// The time axis's name for inputs in `space`: NIfTI (RAS) frames are seconds apart
+/// (`pixdim[4]`), a DICOM manifest's (LPS) times are its own (often % of the breathing
+/// cycle); inputs without units have plain times.
+pub fn time_axis(space: Option<Space>) -> &'static str {
+    match space {
+        Some(Space::Ras) => "time (s)",
+        Some(Space::Lps) => "time (manifest)",
+        None => "time",
     }
 }
 
@@ -76,7 +177,7 @@ impl Measurement {
 
     /// The per-time CSV table.
     pub fn to_csv(&self) -> String {
-        self.motion.to_csv(&self.labels(), self.units, self.frame)
+        self.motion.to_csv(&self.labels(), self.units, self.space)
     }
 
     /// Class `k`'s figures over the times.
@@ -89,14 +190,84 @@ impl Measurement {
         round(self.units.from_world_volume(v))
     }
 
+    /// The per-class figures over the times as lines of text (what `dynaslice measure` prints
+    /// on standard error): a header naming the units and frame, then per class its volume
+    /// range, as rigid where the volume is constant within [`RIGID_WITHIN`] and with its volume
+    /// change otherwise, and the centroid's peak-to-peak range.
+    pub fn summary(&self) -> Vec<String> {
+        let (v, l) = (self.units.volume(), self.units.length());
+        let [x, y, z] = self.positive();
+        let times = &self.motion.times;
+        let mut lines = vec![format!(
+            "{} times from {} to {}; {} in {v}, positions in {l} ({}: +x {x}, +y {y}, +z {z})",
+            times.len(),
+            times[0],
+            times[times.len() - 1],
+            if self.units == Units::Plain {
+                "plain input units (the input names none)"
+            } else {
+                "volumes"
+            },
+            self.space_name(),
+        )];
+        let [p, q, r] = self.axis_names();
+        let percent = |r: Option<f64>| r.map_or("-".into(), |r| format!("{:.1} %", 100.0 * r));
+        let mut changing = false;
+        for (k, c) in self.classes.iter().enumerate() {
+            let cycle = self.cycle(k);
+            let amplitude = cycle.amplitude.map_or("absent at every time".into(), |a| {
+                let a = a.map(round);
+                format!("{p} {} / {q} {} / {r} {} {l}", a[0], a[1], a[2])
+            });
+            let (lo, hi) = (cycle.min, cycle.max);
+            let range = format!(
+                "volume {} {v} (t = {}) to {} {v} (t = {})",
+                self.volume(lo.volume),
+                lo.time,
+                self.volume(hi.volume),
+                hi.time,
+            );
+            let volume = if times.len() == 1 {
+                format!("volume {} {v}", self.volume(lo.volume))
+            } else if cycle.is_rigid() {
+                format!(
+                    "rigid: {range}, constant within {:.0} % (changes {})",
+                    100.0 * RIGID_WITHIN,
+                    percent(cycle.relative_change)
+                )
+            } else {
+                changing = true;
+                format!(
+                    "{range}, change {} {v} = {} of the largest",
+                    self.volume(cycle.volume_change),
+                    percent(cycle.relative_change)
+                )
+            };
+            lines.push(format!(
+                "  {:?}: {volume}; peak-to-peak {amplitude}",
+                c.name
+            ));
+        }
+        if changing {
+            lines.push(
+                "  (for a ventricle the change is the stroke volume, and its share of the \
+                 largest the ejection fraction)"
+                    .into(),
+            );
+        }
+        lines
+    }
+
     /// Everything as one JSON object (`classes[k]`: `name`, `label`, `color`, `volume_ml` per
-    /// time, `amplitude_mm` {`lr`, `ap`, `si`}, `ejection_fraction`, …), numbers rounded as in
-    /// the CSV. Where the units are not millimetres, `volume_ml` and `amplitude_mm` are null and
+    /// time, `amplitude_mm` {`lr`, `ap`, `si`}, `volume_change`, `relative_volume_change`,
+    /// `rigid`, …), numbers rounded as in the CSV. `stroke_volume` and `ejection_fraction` are
+    /// `volume_change` and `relative_volume_change` under their cardiac names, kept for the
+    /// scripts that read them. Where the units are not millimetres, `volume_ml` and `amplitude_mm` are null and
     /// `volume` and `amplitude` hold the plain values.
     pub fn to_json(&self, model: &Path) -> Value {
         let m = &self.motion;
         let mm = self.units == Units::Millimetres;
-        let point = |p: Option<[f64; 3]>| p.map(|p| self.frame.from_world(p).map(round));
+        let point = |p: Option<[f64; 3]>| p.map(|p| self.from_world(p).map(round));
         let classes: Vec<Value> = self
             .classes
             .iter()
@@ -106,14 +277,14 @@ impl Measurement {
                 let volumes: Vec<f64> = m.shapes.iter().map(|s| self.volume(s[k].volume)).collect();
                 let amplitude = cycle.amplitude.map(|a| a.map(round));
                 let anatomical = amplitude
-                    .filter(|_| self.frame.is_anatomical())
+                    .filter(|_| self.is_anatomical())
                     .map(|[lr, ap, si]| json!({"lr": lr, "ap": ap, "si": si}));
                 let boxes: Vec<Option<Value>> = m
                     .shapes
                     .iter()
                     .map(|s| {
                         s[k].bounds.map(|(lo, hi)| {
-                            let (a, b) = (self.frame.from_world(lo), self.frame.from_world(hi));
+                            let (a, b) = (self.from_world(lo), self.from_world(hi));
                             let min: [f64; 3] = std::array::from_fn(|i| round(a[i].min(b[i])));
                             let max: [f64; 3] = std::array::from_fn(|i| round(a[i].max(b[i])));
                             json!({"min": min, "max": max})
@@ -132,8 +303,11 @@ impl Measurement {
                     "bounding_box": boxes,
                     "min_volume": {"volume": self.volume(cycle.min.volume), "time": cycle.min.time},
                     "max_volume": {"volume": self.volume(cycle.max.volume), "time": cycle.max.time},
-                    "stroke_volume": self.volume(cycle.stroke_volume),
-                    "ejection_fraction": cycle.ejection_fraction.map(round),
+                    "volume_change": self.volume(cycle.volume_change),
+                    "relative_volume_change": cycle.relative_change.map(round),
+                    "rigid": cycle.is_rigid(),
+                    "stroke_volume": self.volume(cycle.volume_change),
+                    "ejection_fraction": cycle.relative_change.map(round),
                     "amplitude": amplitude.map(|[x, y, z]| json!({"x": x, "y": y, "z": z})),
                     "amplitude_mm": if mm { anatomical.unwrap_or(Value::Null) } else { Value::Null },
                 })
@@ -144,11 +318,11 @@ impl Measurement {
             "units": {
                 "length": self.units.length(),
                 "volume": self.units.volume(),
-                "time": time_axis(self.frame),
+                "time": self.time_axis(),
             },
             "frame": {
-                "name": self.frame.name(),
-                "positive": self.frame.positive(),
+                "name": self.space_name(),
+                "positive": self.positive(),
             },
             "times": m.times,
             "classes": classes,

@@ -9,7 +9,10 @@
 
 #![warn(missing_docs)]
 
+pub mod model_report;
 pub mod viewer;
+
+pub use model_report::assemble;
 
 use std::fmt::Write as _;
 

@@ -52,7 +52,7 @@ pub struct Surface {
 
 /// One time: each class's surface and volume.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Frame {
+pub struct Snapshot {
     /// The time, shown as written (e.g. already rounded).
     pub time: f64,
     /// One surface per class, in the order of [`Scene::classes`] (empty where absent).
@@ -67,7 +67,7 @@ pub struct Scene {
     /// The classes, in order.
     pub classes: Vec<Class>,
     /// The times, in order (the slider's positions).
-    pub frames: Vec<Frame>,
+    pub snapshots: Vec<Snapshot>,
     /// The slider's label before the time (e.g. `time` or `cardiac phase`).
     pub time_label: String,
     /// The volumes' unit (e.g. `mL`).
@@ -85,7 +85,7 @@ pub fn render_within(scene: &Scene, budget: usize) -> String {
     let Some(packed) = pack_within(scene, budget) else {
         return format!(
             "<p>No surface at any of the {} times: nothing to show in 3D.</p>\n",
-            scene.frames.len()
+            scene.snapshots.len()
         );
     };
     let mut h = String::new();
@@ -98,7 +98,7 @@ pub fn render_within(scene: &Scene, budget: usize) -> String {
          <input type=\"range\" data-dsv=\"time\" min=\"0\" max=\"{}\" step=\"1\" value=\"0\" \
          aria-label=\"{}\"><span data-dsv=\"time-label\"></span></div>\n<table>\n<thead><tr>\
          <th>show</th><th>class</th><th>volume ({})</th></tr></thead>\n<tbody>\n",
-        scene.frames.len().saturating_sub(1),
+        scene.snapshots.len().saturating_sub(1),
         escape(&scene.time_label),
         escape(&scene.volume_unit)
     );
@@ -123,7 +123,7 @@ pub fn render_within(scene: &Scene, budget: usize) -> String {
          <script type=\"application/octet-stream\" data-dsv=\"geometry\">{}</script>\n\
          <script>{SCRIPT}</script>\n</div>\n",
         packed.triangles,
-        scene.frames.len(),
+        scene.snapshots.len(),
         packed.json,
         base64::encode(&packed.bytes)
     );
@@ -174,7 +174,7 @@ fn bounds(scene: &Scene) -> Option<([f64; 3], [f64; 3])> {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     let mut any = false;
-    for s in scene.frames.iter().flat_map(|f| &f.surfaces) {
+    for s in scene.snapshots.iter().flat_map(|f| &f.surfaces) {
         if s.triangles.is_empty() {
             continue;
         }
@@ -192,7 +192,7 @@ fn bounds(scene: &Scene) -> Option<([f64; 3], [f64; 3])> {
 /// The mean length of the triangles' first edges over all surfaces (the meshes' spacing).
 fn mean_edge(scene: &Scene) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
-    for s in scene.frames.iter().flat_map(|f| &f.surfaces) {
+    for s in scene.snapshots.iter().flat_map(|f| &f.surfaces) {
         for t in &s.triangles {
             let (a, b) = (s.positions[t[0] as usize], s.positions[t[1] as usize]);
             sum += (0..3)
@@ -210,9 +210,9 @@ fn mean_edge(scene: &Scene) -> f64 {
 fn pack(scene: &Scene, lo: [f64; 3], hi: [f64; 3], cell: Option<f64>) -> Option<Packed> {
     let step: [f64; 3] = std::array::from_fn(|a| (hi[a] - lo[a]) / 65535.0);
     let mut words: Vec<u16> = Vec::new();
-    let mut frames = Vec::with_capacity(scene.frames.len());
+    let mut frames = Vec::with_capacity(scene.snapshots.len());
     let mut triangles = 0;
-    for f in &scene.frames {
+    for f in &scene.snapshots {
         let mut meshes = Vec::with_capacity(scene.classes.len());
         for k in 0..scene.classes.len() {
             let empty = Surface::default();
@@ -400,8 +400,8 @@ mod tests {
                     color: [60, 180, 75],
                 },
             ],
-            frames: (0..frames)
-                .map(|f| Frame {
+            snapshots: (0..frames)
+                .map(|f| Snapshot {
                     time: f as f64 * 0.5,
                     surfaces: vec![
                         sphere([0.0; 3], 10.0 + f as f32, n),
@@ -438,13 +438,13 @@ mod tests {
         // Undecimated: every vertex and index of every surface, 3 + 3 words per vertex and
         // triangle.
         let surfaces: usize = s
-            .frames
+            .snapshots
             .iter()
             .flat_map(|f| &f.surfaces)
             .map(|m| 3 * m.positions.len() + 3 * m.triangles.len())
             .sum();
         assert_eq!(words.len(), surfaces);
-        let first = &s.frames[0].surfaces[0];
+        let first = &s.snapshots[0].surfaces[0];
         assert!(json.contains(&format!(
             "\"meshes\":[[0,{},{},{}]",
             first.positions.len(),
@@ -478,7 +478,7 @@ mod tests {
     fn large_scenes_are_decimated_under_the_budget_and_keep_every_class() {
         let s = scene(150, 6);
         let raw: usize = s
-            .frames
+            .snapshots
             .iter()
             .flat_map(|f| &f.surfaces)
             .map(|m| 6 * m.positions.len() + 6 * m.triangles.len())
@@ -512,7 +512,7 @@ mod tests {
     #[test]
     fn a_scene_without_surfaces_says_so() {
         let mut s = scene(4, 2);
-        for f in &mut s.frames {
+        for f in &mut s.snapshots {
             f.surfaces.clear();
         }
         let html = render(&s);
