@@ -187,3 +187,44 @@ def test_train_replaces_nothing_without_force(tmp_path):
     model = dynaslice.train(sections, out, steps=2, threads=1, progress=False, force=True,
                             **SMALL)
     assert out.exists() and model.num_classes >= 1
+
+
+def test_a_static_model_answers_any_time_at_its_one_time(tmp_path, caplog):
+    # One timestep: a static model (ω_t^max = 0), the same at every time, as `dynaslice info`
+    # says; Python answers any time there, as `dynaslice query`, `mesh` and `labels` do.
+    sections = write_sphere_sections(tmp_path / "one.json", frames=1, planes=5)
+    model = dynaslice.train(sections, tmp_path / "static.dsm", steps=40, seed=3, threads=1,
+                            progress=False, **SMALL)
+    assert model.is_static
+    t0, t1 = model.time_range
+    assert t0 == t1, "a static model has one time, not a range"
+    assert "static" in repr(model)
+    p = points_in(model, 500)
+    at_t0 = model.sdf(p, t0)
+    caplog.set_level("INFO")
+    for t in (t0 + 7.0, -3.5, np.linspace(-10.0, 10.0, len(p))):
+        np.testing.assert_array_equal(model.sdf(p, t), at_t0)
+        np.testing.assert_array_equal(model.labels(p, t), model.labels(p, t0))
+    assert any("static model" in r.getMessage() and "answering at its time" in r.getMessage()
+               for r in caplog.records), [r.getMessage() for r in caplog.records]
+    with pytest.raises(ValueError, match="not a finite number"):
+        model.sdf(p, float("nan"))
+    # Meshes and label volumes: once, at its time, whatever times are asked for.
+    a, b = model.mesh(t0, cls="ball", resolution=24), model.mesh(t0 + 5.0, cls="ball", resolution=24)
+    np.testing.assert_array_equal(a.vertices, b.vertices)
+    affine = np.diag([0.1, 0.1, 0.1, 1.0])
+    affine[:3, 3] = -1.0
+
+    class Image:
+        shape = (20, 20, 20)
+        header = None
+
+    Image.affine = affine
+    volume = model.label_volume(Image(), times=[0.0, 0.5, 9.0])
+    assert volume.shape == (20, 20, 20, 1), "a static model's label volume has one frame"
+    assert set(np.unique(volume)) <= {0, 3, 7} and (volume == 3).any()
+    # A moving model still refuses a time outside its range.
+    moving = dynaslice.random_model([16, 16], 1, seed=1)
+    assert not moving.is_static and moving.time_range[0] < moving.time_range[1]
+    with pytest.raises(ValueError, match="outside the model's time range"):
+        moving.sdf(p, moving.time_range[1] + 1.0)

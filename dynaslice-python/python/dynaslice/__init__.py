@@ -201,8 +201,16 @@ class Model:
 
     @property
     def time_range(self) -> Tuple[float, float]:
-        """``(t_min, t_max)``: the times the model was trained on."""
+        """``(t_min, t_max)``: the times the model was trained on; ``(t, t)`` for a static
+        model, which answers any time at its one time t."""
         return self._m.time_range
+
+    @property
+    def is_static(self) -> bool:
+        """Whether the model is static: trained on one timestep, the same at every time. It
+        has no time axis: queries, meshes and label volumes at any time are computed at its
+        one time (one frame), with a note on the ``_dynaslice.model`` logger."""
+        return self._m.is_static
 
     @property
     def metadata(self) -> str:
