@@ -8,7 +8,7 @@ the user sees none of it and it counts for nothing). Both are passed on unchange
     silence.py [--label TEXT] [--summary FILE] [--limit SECONDS] -- COMMAND ARGS...
 
 Prints `silence: LONGEST s (after "LINE") in TEXT` on standard error at the end, then every
-silence over 5 s with the line before it (`silence over 5 s: …`), appends
+silence over 5.5 s with the line before it (`silence over 5 s: …`), appends
 `LONGEST<TAB>TEXT` to FILE when given, and exits with the command's status; with --limit a
 longer silence is an error (status 3) where the command itself succeeded.
 """
@@ -19,6 +19,10 @@ import stat
 import subprocess
 import sys
 import time
+
+# Silences listed one by one: over 5 s, the rule, with 0.5 s for the scheduling of a progress
+# ticker that prints every 5 s (dynaslice-cli's progress.rs) on a loaded machine.
+OVER = 5.5
 
 
 def main():
@@ -41,7 +45,7 @@ def main():
         sel.register(child.stdout, selectors.EVENT_READ, 1)
     last = start = time.monotonic()
     longest, after, previous = 0.0, "(the start)", "(the start)"
-    over = []  # (seconds, the line before) of every silence over 5 s
+    over = []  # (seconds, the line before) of every silence over OVER
     partial = {1: b"", 2: b""}
     open_streams = len(sel.get_map())
     while open_streams:
@@ -61,7 +65,7 @@ def main():
                 now = time.monotonic()
                 if now - last > longest:
                     longest, after = now - last, previous
-                if now - last > 5.0:
+                if now - last > OVER:
                     over.append((now - last, previous))
                 last = now
                 done = [p for p in pieces[:-1] if p.strip()]
@@ -71,7 +75,7 @@ def main():
     now = time.monotonic()
     if now - last > longest:
         longest, after = now - last, previous + " (to the end)"
-    if now - last > 5.0:
+    if now - last > OVER:
         over.append((now - last, previous + " (to the end)"))
     sys.stderr.write('silence: %.1f s (after "%s") in %s; %.0f s in all\n'
                      % (longest, after, label, now - start))

@@ -2,6 +2,7 @@
 //! [`dynaslice_data::input`]; and the check of the other files a command reads itself (a model,
 //! `--like`, a reference mesh) by the readers' regular-file rule.
 
+use super::progress::Progress;
 use super::times::note;
 use anyhow::{anyhow, bail, Result};
 use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
@@ -144,7 +145,14 @@ impl InputArgs {
 
 /// Reads the inputs of `file`'s model as it was trained on them ([`InputArgs::spec_as_trained`]).
 pub fn read_as_trained(args: &InputArgs, file: &ModelFile) -> Result<Sequence> {
-    Ok(args.spec_as_trained(file)?.read()?)
+    let spec = args.spec_as_trained(file)?;
+    // Reading and reslicing a label map takes seconds (8 s for a 64³ × 9 map on a loaded
+    // 2-core machine): a progress line every 5 s meanwhile, not silence (issue 39).
+    let progress = Progress::new(&format!("reading {}: input", spec.describe()), 1);
+    let seq = spec.read()?;
+    progress.inc();
+    progress.finish();
+    Ok(seq)
 }
 
 /// `path` as an input: it exists and is a regular file (a FIFO would block the open, a device
