@@ -228,3 +228,54 @@ def test_a_static_model_answers_any_time_at_its_one_time(tmp_path, caplog):
     assert not moving.is_static and moving.time_range[0] < moving.time_range[1]
     with pytest.raises(ValueError, match="outside the model's time range"):
         moving.sdf(p, moving.time_range[1] + 1.0)
+
+
+def test_sigterm_during_train_saves_the_checkpoint_and_resumes(tmp_path):
+    # SIGTERM (timeout, Slurm, docker stop) is handled as `dynaslice train` handles it: the
+    # checkpoint is saved, the program ends with status 128 + 15, no lock or temporary is
+    # left, and resume=True continues the run.
+    import subprocess
+    import sys
+    import time
+
+    sections = write_sphere_sections(tmp_path / "s.json", frames=2, planes=3)
+    out = tmp_path / "m.dsm"
+    script = (
+        "import sys, dynaslice\n"
+        "def seen(p):\n"
+        "    if p['step'] >= 3:\n"
+        "        print('training', flush=True)\n"
+        "dynaslice.train(sys.argv[1], sys.argv[2], steps=100_000, threads=1, progress=seen,\n"
+        "                widths=[32, 32], contour_samples=256, plane_samples=256,\n"
+        "                space_samples=256)\n"
+    )
+    child = subprocess.Popen([sys.executable, "-c", script, str(sections), str(out)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert child.stdout.readline().strip() == "training", child.stderr.read()
+        child.send_signal(signal.SIGTERM)
+        _, err = child.communicate(timeout=120)
+    finally:
+        if child.poll() is None:
+            child.kill()
+    assert child.returncode == 128 + signal.SIGTERM, err
+    assert "SIGTERM" in err, err
+    assert (tmp_path / "m.dsm.ckpt").exists() and not out.exists(), err
+    left = [p.name for p in tmp_path.iterdir() if p.name.endswith(".lock") or p.name.startswith(".")]
+    assert not left, "left after SIGTERM: %s" % left
+
+    class Stop(Exception):
+        pass
+
+    first = []
+
+    def record_and_stop(p):
+        first.append(p["step"])
+        raise Stop("seen")
+
+    started = time.monotonic()
+    with pytest.raises(Stop):
+        dynaslice.train(sections, out, steps=100_000, threads=1, progress=record_and_stop,
+                        resume=True, **SMALL)
+    assert first[0] > 1, "resumed at step %d" % first[0]
+    assert time.monotonic() - started < 120
