@@ -1,6 +1,7 @@
 //! The input options every command that reads cross-sections shares, and reading them through
 //! [`dynaslice_data::input`].
 
+use super::progress::Progress;
 use super::times::note;
 use anyhow::{anyhow, Result};
 use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
@@ -143,7 +144,14 @@ impl InputArgs {
 
 /// Reads the inputs of `file`'s model as it was trained on them ([`InputArgs::spec_as_trained`]).
 pub fn read_as_trained(args: &InputArgs, file: &ModelFile) -> Result<Sequence> {
-    Ok(args.spec_as_trained(file)?.read()?)
+    let spec = args.spec_as_trained(file)?;
+    // Reading and reslicing a label map takes seconds (8 s for a 64³ × 9 map on a loaded
+    // 2-core machine): a progress line every 5 s meanwhile, not silence (issue 39).
+    let progress = Progress::new(&format!("reading {}: input", spec.describe()), 1);
+    let seq = spec.read()?;
+    progress.inc();
+    progress.finish();
+    Ok(seq)
 }
 
 #[cfg(test)]

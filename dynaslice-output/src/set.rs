@@ -11,6 +11,11 @@
 //! every replaced file back and removes every new one: after it, the whole new set is in place
 //! or the whole old one. A signal handler ([`crate::cleanup`]) waits for a commit in progress.
 //! Renames in one folder need no space, so a full disk fails before the commit, not in it.
+//!
+//! A set written over an earlier one with `--force` may have fewer files (a shorter series,
+//! fewer classes): [`OutputSet::supersede`] names the folder and which of its files make up
+//! such a set, and the commit removes those of the earlier set that it did not write again
+//! (undone with the rest on a failure), so the folder holds this run's files only (issue 37).
 
 use crate::atomic::create_temporary;
 use crate::cleanup;
@@ -27,12 +32,18 @@ struct Staged {
     path: PathBuf,
 }
 
+/// A test of a file name: whether it is one of a kind of set's files.
+type Member = fn(&str) -> bool;
+
 /// The files of one multi-file output, committed together (see the module's documentation).
 #[derive(Debug, Default)]
 pub struct OutputSet {
     staged: Vec<Staged>,
     /// Folders this set created, outermost first: removed (when empty) unless committed.
     created: Vec<PathBuf>,
+    /// Folders whose earlier set this one replaces, with the test of a file name that tells
+    /// such a set's files from others.
+    superseded: Vec<(PathBuf, Member)>,
 }
 
 impl OutputSet {
@@ -123,6 +134,49 @@ impl OutputSet {
         Ok(())
     }
 
+    /// Declares that this set replaces an earlier set of the same kind in folder `dir`, whose
+    /// files are those whose names pass `is_member` (e.g. `classK_name_tIIII.vtp` and
+    /// `series.pvd`). When the commit replaces at least one existing file (a forced run over
+    /// an earlier set: without `--force` the [`crate::Plan`] refuses an existing file), it
+    /// also removes every such file in `dir` that this set does not write, so no file of a
+    /// longer earlier series is left beside the new one. Nothing else in `dir` is touched,
+    /// and a failed commit puts the removed files back.
+    pub fn supersede(&mut self, dir: &Path, is_member: Member) {
+        self.superseded.push((dir.to_path_buf(), is_member));
+    }
+
+    /// The files of the earlier sets [`OutputSet::supersede`] names that this set does not
+    /// write again, sorted; none unless the set replaces an existing file.
+    fn earlier_files(&self) -> Vec<PathBuf> {
+        let replaces = self
+            .staged
+            .iter()
+            .any(|s| std::fs::symlink_metadata(&s.path).is_ok());
+        if !replaces {
+            return Vec::new();
+        }
+        let mut earlier = Vec::new();
+        for (dir, is_member) in &self.superseded {
+            let Ok(entries) = std::fs::read_dir(dir) else {
+                continue;
+            };
+            for entry in entries.flatten() {
+                let is_dir = entry.file_type().is_ok_and(|t| t.is_dir());
+                let name = entry.file_name();
+                let Some(name) = name.to_str() else { continue };
+                if is_dir || !is_member(name) {
+                    continue;
+                }
+                let path = dir.join(name);
+                if !self.staged.iter().any(|s| same_place(&s.path, &path)) {
+                    earlier.push(path);
+                }
+            }
+        }
+        earlier.sort();
+        earlier
+    }
+
     /// The final paths staged so far, in staging order.
     pub fn paths(&self) -> impl Iterator<Item = &Path> {
         self.staged.iter().map(|s| s.path.as_path())
@@ -131,6 +185,7 @@ impl OutputSet {
     /// Renames every staged file into place: afterwards all are there, or (on an error) every
     /// file is as it was before the commit and no temporary is left.
     pub fn commit(mut self) -> Result<()> {
+        let earlier = self.earlier_files();
         let mut list = cleanup::lock();
         let staged = std::mem::take(&mut self.staged);
         // Per file in place: the path and the hard link keeping the file it replaced.
@@ -172,7 +227,41 @@ impl OutputSet {
         for s in pending {
             list.forget(&s.tmp);
         }
+        // The earlier set's other files go once the new ones are all in place; each is kept
+        // (a hard link) until the end, to be put back if anything fails.
+        let mut removed: Vec<(PathBuf, TempPath)> = Vec::new();
+        if failure.is_none() {
+            for path in &earlier {
+                let gone = keep_old(path).and_then(|backup| {
+                    match std::fs::remove_file(path) {
+                        Ok(()) => {}
+                        // Renamed aside where the file system has no hard links.
+                        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                        Err(e) => {
+                            if let Some(old) = backup {
+                                let _ = old.persist(path);
+                            }
+                            return Err(e).with_context(|| {
+                                format!("cannot remove {} of the earlier output", path.display())
+                            });
+                        }
+                    }
+                    Ok(backup)
+                });
+                match gone {
+                    Ok(Some(backup)) => removed.push((path.clone(), backup)),
+                    Ok(None) => {}
+                    Err(e) => {
+                        failure = Some(e);
+                        break;
+                    }
+                }
+            }
+        }
         if let Some(e) = failure {
+            for (path, old) in removed.into_iter().rev() {
+                let _ = old.persist(&path);
+            }
             // Undo in reverse: the replaced files back, the new ones gone.
             for (path, backup) in placed.into_iter().rev() {
                 match backup {
@@ -192,8 +281,24 @@ impl OutputSet {
             list.forget(&dir);
         }
         drop(placed);
+        if !removed.is_empty() {
+            log::info!(
+                "removed {} file(s) of the earlier output that this run does not write again \
+                 (the first: {})",
+                removed.len(),
+                removed[0].0.display()
+            );
+        }
+        drop(removed);
         Ok(())
     }
+}
+
+/// Whether `a` and `b` name the same place (lexically, after making both absolute: the set's
+/// paths and a folder's listing are spelled the same way).
+fn same_place(a: &Path, b: &Path) -> bool {
+    let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    a == b || abs(a) == abs(b)
 }
 
 impl Drop for OutputSet {
@@ -321,6 +426,80 @@ mod tests {
         drop(set);
         assert_eq!(names(dir.path()), before);
         assert!(cleanup::listed().iter().all(|p| !p.starts_with(dir.path())));
+    }
+
+    /// `tIIII.vtp` and `series.pvd`: the files of a test series.
+    fn series_file(name: &str) -> bool {
+        name == "series.pvd" || (name.starts_with('t') && name.ends_with(".vtp"))
+    }
+
+    /// Writes a series of `n` files (and its `series.pvd`) into `dir` over whatever is there.
+    fn series(dir: &Path, n: usize, content: &[u8]) -> Result<()> {
+        let mut set = OutputSet::new();
+        set.create_dir(dir)?;
+        set.supersede(dir, series_file);
+        for i in 0..n {
+            set.write(&dir.join(format!("t{i:04}.vtp")), content)?;
+        }
+        set.write(&dir.join("series.pvd"), content)?;
+        set.commit()
+    }
+
+    #[test]
+    fn a_shorter_series_over_a_longer_one_leaves_none_of_its_extra_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("meshes");
+        series(&out, 6, b"old").unwrap();
+        // The user's own file in the folder is no file of a series.
+        std::fs::write(out.join("notes.txt"), b"mine").unwrap();
+        series(&out, 4, b"new").unwrap();
+        assert_eq!(
+            names(&out),
+            [
+                "notes.txt",
+                "series.pvd",
+                "t0000.vtp",
+                "t0001.vtp",
+                "t0002.vtp",
+                "t0003.vtp"
+            ]
+        );
+        assert_eq!(std::fs::read(out.join("t0003.vtp")).unwrap(), b"new");
+        assert_eq!(std::fs::read(out.join("notes.txt")).unwrap(), b"mine");
+
+        // A set that replaces no existing file (no --force was needed) removes nothing: the
+        // files there are not an earlier run of this output.
+        let other = dir.path().join("other");
+        std::fs::create_dir(&other).unwrap();
+        std::fs::write(other.join("t0009.vtp"), b"someone's").unwrap();
+        let mut set = OutputSet::new();
+        set.supersede(&other, series_file);
+        set.write(&other.join("t0000.vtp"), b"new").unwrap();
+        set.commit().unwrap();
+        assert_eq!(names(&other), ["t0000.vtp", "t0009.vtp"]);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_failed_commit_of_a_shorter_series_keeps_the_whole_longer_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("meshes");
+        series(&out, 3, b"old").unwrap();
+        let before = names(&out);
+        let mut set = OutputSet::new();
+        set.supersede(&out, series_file);
+        set.write(&out.join("t0000.vtp"), b"new").unwrap();
+        set.write(&out.join("series.pvd"), b"new").unwrap();
+        // The second rename fails: its final name became a non-empty folder after staging.
+        std::fs::remove_file(out.join("series.pvd")).unwrap();
+        std::fs::create_dir(out.join("series.pvd")).unwrap();
+        std::fs::write(out.join("series.pvd/keep"), b"k").unwrap();
+        let err = set.commit().unwrap_err();
+        assert!(format!("{err:#}").contains("all files or none"), "{err:#}");
+        assert_eq!(names(&out), before);
+        for name in ["t0000.vtp", "t0001.vtp", "t0002.vtp"] {
+            assert_eq!(std::fs::read(out.join(name)).unwrap(), b"old", "{name}");
+        }
     }
 
     #[cfg(unix)]

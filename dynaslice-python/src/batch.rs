@@ -198,21 +198,35 @@ impl<'py> TimesArg<'py> {
     /// The first time outside `domain`'s range ([`Domain::contains_time`], the rule of every
     /// front end), with its point's index.
     pub fn first_outside(&self, domain: &Domain) -> Option<(usize, f32)> {
-        let outside = |t: f32| !domain.contains_time(t);
+        self.find(|t| !domain.contains_time(t))
+    }
+
+    /// The first time that is not a finite number, with its point's index.
+    pub fn first_not_finite(&self) -> Option<(usize, f32)> {
+        self.find(|t| !t.is_finite())
+    }
+
+    /// The first time other than `t0`, with its point's index.
+    pub fn first_other_than(&self, t0: f32) -> Option<(usize, f32)> {
+        self.find(|t| t != t0)
+    }
+
+    /// The first time (as the network takes it, f32) for which `test` holds.
+    fn find(&self, test: impl Fn(f32) -> bool) -> Option<(usize, f32)> {
         match self {
-            TimesArg::Scalar(t) => outside(*t).then_some((0, *t)),
+            TimesArg::Scalar(t) => test(*t).then_some((0, *t)),
             TimesArg::F32(a) => a
                 .as_array()
                 .iter()
                 .copied()
                 .enumerate()
-                .find(|&(_, t)| outside(t)),
+                .find(|&(_, t)| test(t)),
             TimesArg::F64(a) => a
                 .as_array()
                 .iter()
                 .map(|&t| t as f32)
                 .enumerate()
-                .find(|&(_, t)| outside(t)),
+                .find(|&(_, t)| test(t)),
         }
     }
 

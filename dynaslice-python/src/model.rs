@@ -60,15 +60,29 @@ impl PyModel {
         let points = PointsArg::extract(points)?;
         let view = points.view();
         let n = view.len();
-        let times = TimesArg::extract(t, n)?;
+        let mut times = TimesArg::extract(t, n)?;
         let model = self.model();
-        if let Some((i, t)) = times.first_outside(model.domain()) {
-            let at = if n > 1 {
+        let at = |i: usize| {
+            if n > 1 {
                 format!(" (point {i})")
             } else {
                 String::new()
-            };
-            return Err(outside(model, t, &at));
+            }
+        };
+        if let Some(t0) = self.static_time() {
+            // Any time is answered at the model's one time, as `dynaslice query` does.
+            if let Some((i, t)) = times.first_not_finite() {
+                return Err(PyValueError::new_err(format!(
+                    "time {t}{} is not a finite number",
+                    at(i)
+                )));
+            }
+            if let Some((_, t)) = times.first_other_than(t0) {
+                static_note(t0, &format!("time {t}"), "answering");
+            }
+            times = TimesArg::Scalar(t0);
+        } else if let Some((i, t)) = times.first_outside(model.domain()) {
+            return Err(outside(model, t, &at(i)));
         }
         let times = times.view();
         let answers = py
@@ -87,6 +101,33 @@ impl PyModel {
             Some(&t) => Err(outside(model, t as f32, "")),
             None => Ok(()),
         }
+    }
+
+    /// The one time of a static model (trained on one timestep: ω_t^max = 0, every ω_t
+    /// clamped to 0, so f does not depend on t; dynaslice-model's `ModelFile::is_static`),
+    /// the start of its nominal range; `None` for a moving model.
+    fn static_time(&self) -> Option<f32> {
+        let model = self.model();
+        (model.omega_t_max() == 0.0).then(|| model.domain().time_range().0)
+    }
+
+    /// The times a computation at `times` runs at: a moving model's, checked against its
+    /// range; a static model's one time, once, with a note where other times were asked for
+    /// (as `dynaslice labels` and `mesh --times` do). `what` says what is done at them.
+    fn model_times(&self, times: &[f64], what: &str) -> PyResult<Vec<f64>> {
+        let Some(t0) = self.static_time() else {
+            self.check_times(times)?;
+            return Ok(times.to_vec());
+        };
+        if let Some(t) = times.iter().find(|t| !t.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "time {t} is not a finite number"
+            )));
+        }
+        if times.len() > 1 || times.iter().any(|&t| t as f32 != t0) {
+            static_note(t0, &format!("the {} time(s) asked for", times.len()), what);
+        }
+        Ok(vec![f64::from(t0)])
     }
 
     /// (N, K) from a point-major buffer, without copying.
@@ -180,10 +221,22 @@ impl PyModel {
         self.model().domain().bounds()
     }
 
-    /// (t_min, t_max): the time range the model was trained on, world time units.
+    /// (t_min, t_max): the time range the model was trained on, world time units. A static
+    /// model (`is_static`) has one time t and gives (t, t); it answers any time there.
     #[getter]
     fn time_range(&self) -> (f32, f32) {
-        self.model().domain().time_range()
+        match self.static_time() {
+            Some(t0) => (t0, t0),
+            None => self.model().domain().time_range(),
+        }
+    }
+
+    /// Whether the model is static: trained on one timestep, the same at every time (no time
+    /// axis: queries, meshes and label volumes at any time are answered at its one time,
+    /// with a note on the `_dynaslice.model` logger).
+    #[getter]
+    fn is_static(&self) -> bool {
+        self.static_time().is_some()
     }
 
     /// The trainer's metadata (`key = value` lines).
@@ -308,7 +361,7 @@ impl PyModel {
     > {
         let model = self.model();
         let channels = resolve_classes(model, &classes).map_err(PyValueError::new_err)?;
-        self.check_times(&[f64::from(t)])?;
+        let t = self.model_times(&[f64::from(t)], "meshing")?[0] as f32;
         let options = Options::of(resolution, dense, safety, non_overlapping, newton_steps);
         let bounds = model.domain().bounds();
         let extraction = detach_result(py, || {
@@ -378,9 +431,22 @@ impl PyModel {
     fn __repr__(&self) -> String {
         let m = self.model();
         let names: Vec<&str> = m.classes().map(|c| c.name).collect();
-        let (t0, t1) = m.domain().time_range();
-        format!("<dynaslice.Model classes={names:?} time_range=({t0}, {t1})>")
+        match self.static_time() {
+            Some(t) => format!("<dynaslice.Model classes={names:?} static (time {t})>"),
+            None => {
+                let (t0, t1) = m.domain().time_range();
+                format!("<dynaslice.Model classes={names:?} time_range=({t0}, {t1})>")
+            }
+        }
     }
+}
+
+/// The note that a static model did its work once, at its time `t0`, not at `asked`.
+fn static_note(t0: f32, asked: &str, what: &str) {
+    log::info!(
+        "a static model (trained on one timestep, ω_t^max = 0) is the same at every time; \
+         {what} at its time {t0}, not at {asked}"
+    );
 }
 
 /// The error of a time outside the model's range: the words of `dynaslice` (the model
@@ -400,7 +466,8 @@ impl PyModel {
         output: Option<PathBuf>,
         threads: Option<usize>,
     ) -> PyResult<(Bound<'py, PyArray1<i32>>, [usize; 3], usize)> {
-        self.check_times(&grid.times)?;
+        let mut grid = grid;
+        grid.times = self.model_times(&grid.times, "one frame")?;
         let model = self.model();
         let frames = grid.times.len();
         let values = detach_result(py, || {

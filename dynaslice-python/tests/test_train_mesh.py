@@ -187,3 +187,95 @@ def test_train_replaces_nothing_without_force(tmp_path):
     model = dynaslice.train(sections, out, steps=2, threads=1, progress=False, force=True,
                             **SMALL)
     assert out.exists() and model.num_classes >= 1
+
+
+def test_a_static_model_answers_any_time_at_its_one_time(tmp_path, caplog):
+    # One timestep: a static model (ω_t^max = 0), the same at every time, as `dynaslice info`
+    # says; Python answers any time there, as `dynaslice query`, `mesh` and `labels` do.
+    sections = write_sphere_sections(tmp_path / "one.json", frames=1, planes=5)
+    model = dynaslice.train(sections, tmp_path / "static.dsm", steps=40, seed=3, threads=1,
+                            progress=False, **SMALL)
+    assert model.is_static
+    t0, t1 = model.time_range
+    assert t0 == t1, "a static model has one time, not a range"
+    assert "static" in repr(model)
+    p = points_in(model, 500)
+    at_t0 = model.sdf(p, t0)
+    caplog.set_level("INFO")
+    for t in (t0 + 7.0, -3.5, np.linspace(-10.0, 10.0, len(p))):
+        np.testing.assert_array_equal(model.sdf(p, t), at_t0)
+        np.testing.assert_array_equal(model.labels(p, t), model.labels(p, t0))
+    assert any("static model" in r.getMessage() and "answering at its time" in r.getMessage()
+               for r in caplog.records), [r.getMessage() for r in caplog.records]
+    with pytest.raises(ValueError, match="not a finite number"):
+        model.sdf(p, float("nan"))
+    # Meshes and label volumes: once, at its time, whatever times are asked for.
+    a, b = model.mesh(t0, cls="ball", resolution=24), model.mesh(t0 + 5.0, cls="ball", resolution=24)
+    np.testing.assert_array_equal(a.vertices, b.vertices)
+    affine = np.diag([0.1, 0.1, 0.1, 1.0])
+    affine[:3, 3] = -1.0
+
+    class Image:
+        shape = (20, 20, 20)
+        header = None
+
+    Image.affine = affine
+    volume = model.label_volume(Image(), times=[0.0, 0.5, 9.0])
+    assert volume.shape == (20, 20, 20, 1), "a static model's label volume has one frame"
+    assert set(np.unique(volume)) <= {0, 3, 7} and (volume == 3).any()
+    # A moving model still refuses a time outside its range.
+    moving = dynaslice.random_model([16, 16], 1, seed=1)
+    assert not moving.is_static and moving.time_range[0] < moving.time_range[1]
+    with pytest.raises(ValueError, match="outside the model's time range"):
+        moving.sdf(p, moving.time_range[1] + 1.0)
+
+
+def test_sigterm_during_train_saves_the_checkpoint_and_resumes(tmp_path):
+    # SIGTERM (timeout, Slurm, docker stop) is handled as `dynaslice train` handles it: the
+    # checkpoint is saved, the program ends with status 128 + 15, no lock or temporary is
+    # left, and resume=True continues the run.
+    import subprocess
+    import sys
+    import time
+
+    sections = write_sphere_sections(tmp_path / "s.json", frames=2, planes=3)
+    out = tmp_path / "m.dsm"
+    script = (
+        "import sys, dynaslice\n"
+        "def seen(p):\n"
+        "    if p['step'] >= 3:\n"
+        "        print('training', flush=True)\n"
+        "dynaslice.train(sys.argv[1], sys.argv[2], steps=100_000, threads=1, progress=seen,\n"
+        "                widths=[32, 32], contour_samples=256, plane_samples=256,\n"
+        "                space_samples=256)\n"
+    )
+    child = subprocess.Popen([sys.executable, "-c", script, str(sections), str(out)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert child.stdout.readline().strip() == "training", child.stderr.read()
+        child.send_signal(signal.SIGTERM)
+        _, err = child.communicate(timeout=120)
+    finally:
+        if child.poll() is None:
+            child.kill()
+    assert child.returncode == 128 + signal.SIGTERM, err
+    assert "SIGTERM" in err, err
+    assert (tmp_path / "m.dsm.ckpt").exists() and not out.exists(), err
+    left = [p.name for p in tmp_path.iterdir() if p.name.endswith(".lock") or p.name.startswith(".")]
+    assert not left, "left after SIGTERM: %s" % left
+
+    class Stop(Exception):
+        pass
+
+    first = []
+
+    def record_and_stop(p):
+        first.append(p["step"])
+        raise Stop("seen")
+
+    started = time.monotonic()
+    with pytest.raises(Stop):
+        dynaslice.train(sections, out, steps=100_000, threads=1, progress=record_and_stop,
+                        resume=True, **SMALL)
+    assert first[0] > 1, "resumed at step %d" % first[0]
+    assert time.monotonic() - started < 120

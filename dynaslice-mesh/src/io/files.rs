@@ -32,6 +32,27 @@ pub fn class_tag(k: usize, name: &str) -> String {
     }
 }
 
+/// Whether `name` is a file of a series [`MeshFiles::series`] writes: `series.pvd`, or
+/// `classK[_slug]_tIIII.EXT` with EXT a mesh format's extension.
+fn is_series_file(name: &str) -> bool {
+    if name == "series.pvd" {
+        return true;
+    }
+    let Some((stem, ext)) = name.rsplit_once('.') else {
+        return false;
+    };
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    let Some((tag, index)) = stem.rsplit_once("_t") else {
+        return false;
+    };
+    let Some(rest) = tag.strip_prefix("class") else {
+        return false;
+    };
+    let (k, slug) = rest.split_once('_').unwrap_or((rest, ""));
+    let slug_ok = slug.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-');
+    ["ply", "obj", "stl", "vtp"].contains(&ext) && digits(index) && digits(k) && slug_ok
+}
+
 /// The mesh files of one run, and the collection entries of those written so far.
 #[derive(Debug)]
 pub struct MeshFiles {
@@ -74,10 +95,12 @@ impl MeshFiles {
 
     /// The files of a time series in directory `dir` (created if missing, and removed again
     /// if the run does not finish): `classK_name_tIIII.EXT`, IIII the time's index, vertices
-    /// in `space`.
+    /// in `space`. Written over an earlier series (`--force`), the earlier series' files this
+    /// one does not write again are removed at the commit ([`OutputSet::supersede`]).
     pub fn series(dir: &Path, format: Format, space: Space) -> Result<MeshFiles> {
         let mut set = OutputSet::new();
         set.create_dir(dir)?;
+        set.supersede(dir, is_series_file);
         Ok(MeshFiles {
             output: dir.to_path_buf(),
             format,
@@ -169,6 +192,27 @@ impl MeshFiles {
 mod tests {
     use super::super::tests::tetrahedron;
     use super::*;
+
+    #[test]
+    fn series_files_are_told_from_others() {
+        for name in [
+            "series.pvd",
+            "class1_LV_t0000.vtp",
+            "class12_t0005.ply",
+            "class2_a-b_t0001.stl",
+        ] {
+            assert!(is_series_file(name), "{name}");
+        }
+        for name in [
+            "notes.txt",
+            "class1_LV_t0000.vtp.bak",
+            "classX_t0001.vtp",
+            "class1_a_t.vtp",
+            "heart.vtp",
+        ] {
+            assert!(!is_series_file(name), "{name}");
+        }
+    }
 
     #[test]
     fn class_tags_are_file_name_safe() {

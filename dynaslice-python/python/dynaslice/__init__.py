@@ -18,8 +18,11 @@ See docs/python.md for the whole API.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
+import threading
 from typing import Any, Callable, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -201,8 +204,16 @@ class Model:
 
     @property
     def time_range(self) -> Tuple[float, float]:
-        """``(t_min, t_max)``: the times the model was trained on."""
+        """``(t_min, t_max)``: the times the model was trained on; ``(t, t)`` for a static
+        model, which answers any time at its one time t."""
         return self._m.time_range
+
+    @property
+    def is_static(self) -> bool:
+        """Whether the model is static: trained on one timestep, the same at every time. It
+        has no time axis: queries, meshes and label volumes at any time are computed at its
+        one time (one frame), with a note on the ``_dynaslice.model`` logger."""
+        return self._m.is_static
 
     @property
     def metadata(self) -> str:
@@ -405,7 +416,9 @@ def train(
     command line's words) before any file is read. The loss log and curve are written beside
     the model (``output + ".loss.csv"``, ``".loss.png"``). While training, the checkpoint is
     kept at ``output + ".ckpt"`` (removed when the run finishes): Ctrl-C stops training, saves
-    it and raises KeyboardInterrupt; ``resume=True`` continues from it, ``force=True`` starts
+    it and raises KeyboardInterrupt; SIGTERM and SIGHUP do the same and raise SystemExit
+    (status 128 + the signal), unless the program set its own handler; ``resume=True``
+    continues from it, ``force=True`` starts
     afresh over it. An existing model, loss log or curve is replaced only with ``force=True``.
     """
     if isinstance(inputs, (str, os.PathLike)):
@@ -419,14 +432,51 @@ def train(
         callback = None
     else:
         callback = progress
-    native = _dynaslice.train(
-        paths,
-        os.fspath(output),
-        steps=steps,
-        minutes=minutes,
-        seed=seed,
-        threads=threads,
-        progress=callback,
-        **options,
-    )
+    with _stop_on_termination():
+        native = _dynaslice.train(
+            paths,
+            os.fspath(output),
+            steps=steps,
+            minutes=minutes,
+            seed=seed,
+            threads=threads,
+            progress=callback,
+            **options,
+        )
     return Model(native)
+
+
+@contextlib.contextmanager
+def _stop_on_termination() -> Iterator[None]:
+    """SIGTERM and SIGHUP (what ``timeout``, Slurm and ``docker stop`` send) stop training as
+    Ctrl-C does, as ``dynaslice train`` handles them: the checkpoint is saved, then
+    SystemExit(128 + signal) ends the program with the status the signal's default action
+    gives, and ``resume=True`` continues the run. Only where Python's default action is in
+    place (a handler the program set is left alone) and in the main thread (the only one
+    Python runs signal handlers in)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum: int, frame: Any) -> None:
+        sys.stderr.write(
+            "dynaslice: %s: stopping training and saving the checkpoint\n"
+            % signal.Signals(signum).name
+        )
+        raise SystemExit(128 + signum)
+
+    previous = {}
+    for name in ("SIGTERM", "SIGHUP"):
+        number = getattr(signal, name, None)
+        if number is not None and signal.getsignal(number) == signal.SIG_DFL:
+            previous[number] = signal.signal(number, stop)
+    try:
+        yield
+    except SystemExit as e:
+        # Python 3.11+ carries where the run stands as a note; print it before exiting.
+        for note in getattr(e, "__notes__", []):
+            sys.stderr.write("dynaslice: %s\n" % note)
+        raise
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
