@@ -4,13 +4,17 @@
 //! `MAX_*` constants below and, for training, `dynaslice_train::spec`'s; docs/robustness.md lists which option has which.
 //!
 //! Use: `#[arg(long, value_parser = count(1usize, MAX_THREADS))]`,
-//! `#[arg(long, value_parser = positive_f32(MAX_OMEGA_0))]`.
+//! `#[arg(long, value_parser = f32_in(-1.0, 1.0))]`.
+//!
+//! The training options are not written here one by one: [`flag_args!`] makes clap arguments of
+//! the rows of `dynaslice_train::flags` (name, help, default, limit), as ripgrep keeps one
+//! `Flag` per option.
 
+use clap::{Arg, ArgAction, ArgMatches, Command};
 use dynaslice_data::TimeSeries;
-use dynaslice_train::spec::Limit;
-pub use dynaslice_train::spec::{
-    MAX_MINUTES, MAX_SAMPLES_PER_STEP, MAX_STEPS, MAX_THREADS, MAX_WEIGHT,
-};
+use dynaslice_train::flags::{Flag, Value, Values};
+use dynaslice_train::spec::{Limit, TrainSpec};
+pub use dynaslice_train::spec::{MAX_MINUTES, MAX_STEPS, MAX_THREADS};
 use std::fmt::Display;
 use std::str::FromStr;
 
@@ -101,16 +105,6 @@ pub fn f64_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone 
     move |s| real(s, lo, false, hi)
 }
 
-/// A finite f32 in (0, `hi`].
-pub fn positive_f32(hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
-    move |s| real_f32(s, 0.0, true, f64::from(hi))
-}
-
-/// A finite f32 in [0, `hi`].
-pub fn non_negative_f32(hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
-    move |s| real_f32(s, 0.0, false, f64::from(hi))
-}
-
 /// A finite f32 in [`lo`, `hi`].
 pub fn f32_in(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
     move |s| real_f32(s, f64::from(lo), false, f64::from(hi))
@@ -177,6 +171,152 @@ pub fn time_series(
     }
 }
 
+/// The clap argument of the training option `flag`: its flag, value name, help (with the
+/// default, as clap shows one) and a parser checking its limit. The default is shown, not
+/// filled in: an option not given stays `None` and `TrainSpec` applies its default.
+fn flag_arg(flag: &'static Flag) -> Arg {
+    // clap keeps `&'static str` names (without its `string` feature): the few made from the
+    // table live as long as the process, as the command does.
+    let leak = |s: String| -> &'static str { Box::leak(s.into_boxed_str()) };
+    let arg = Arg::new(flag.name).long(leak(flag.long()));
+    let default = flag.default.to_string();
+    let with_default = |text: String| match default.as_str() {
+        "" => text,
+        d => format!("{text} [default: {d}]"),
+    };
+    let mut long = flag.help.to_string();
+    if let Some(more) = flag.more {
+        long = format!("{long}.\n\n{more}");
+    }
+    if !default.is_empty() {
+        long = format!("{long}\n\n[default: {default}]");
+    }
+    let arg = arg
+        .help(with_default(flag.help.to_string()))
+        .long_help(long);
+    match flag.values {
+        Values::Switch => arg.action(ArgAction::SetTrue),
+        values => {
+            let name = flag
+                .value_name
+                .unwrap_or_else(|| leak(flag.name.to_uppercase()));
+            let arg = arg
+                .value_name(name)
+                .value_parser(move |s: &str| flag.parse_item(s));
+            match values {
+                Values::Wholes | Values::Reals32 => {
+                    arg.action(ArgAction::Append).value_delimiter(',')
+                }
+                _ => arg.action(ArgAction::Set),
+            }
+        }
+    }
+}
+
+/// The training options given on a command line, by name, as typed values.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Given(Vec<(&'static str, Value)>);
+
+impl Given {
+    /// `cmd` with the arguments of `flags`.
+    pub fn augment(cmd: Command, flags: &[&'static Flag]) -> Command {
+        flags.iter().fold(cmd, |cmd, &f| cmd.arg(flag_arg(f)))
+    }
+
+    /// The options of `flags` that `m` holds.
+    pub fn of(m: &ArgMatches, flags: &[&'static Flag]) -> Given {
+        let mut given = Vec::new();
+        for &f in flags {
+            let value = match f.values {
+                Values::Switch if m.get_flag(f.name) => Value::Switch(true),
+                Values::Switch => continue,
+                Values::Wholes | Values::Reals32 => {
+                    let Some(items) = m.get_many::<Value>(f.name) else {
+                        continue;
+                    };
+                    let items: Vec<Value> = items.cloned().collect();
+                    if f.values == Values::Wholes {
+                        Value::Wholes(items.iter().filter_map(whole_of).collect())
+                    } else {
+                        Value::Reals(items.iter().filter_map(real_of).collect())
+                    }
+                }
+                _ => match m.get_one::<Value>(f.name) {
+                    Some(v) => v.clone(),
+                    None => continue,
+                },
+            };
+            given.push((f.name, value));
+        }
+        Given(given)
+    }
+
+    /// `spec` with these options set.
+    pub fn apply(&self, mut spec: TrainSpec) -> TrainSpec {
+        for (name, value) in &self.0 {
+            // The parser made each value of its flag's kind.
+            spec.set(name, value.clone())
+                .expect("a table flag takes its own kind of value");
+        }
+        spec
+    }
+}
+
+fn whole_of(v: &Value) -> Option<u64> {
+    match *v {
+        Value::Whole(v) => Some(v),
+        _ => None,
+    }
+}
+
+fn real_of(v: &Value) -> Option<f64> {
+    match *v {
+        Value::Real(v) => Some(v),
+        _ => None,
+    }
+}
+
+/// A clap `Args` struct of some rows of the training options' table (`$flags`, an array of
+/// `&'static Flag`), holding what the command line gave ([`Given`]); `apply` sets it on a
+/// `TrainSpec`.
+macro_rules! flag_args {
+    ($(#[$doc:meta])* $name:ident, $flags:expr) => {
+        $(#[$doc])*
+        #[derive(Clone, Debug, Default, PartialEq)]
+        pub struct $name(pub $crate::options::Given);
+
+        impl $name {
+            /// `spec` with the options given set.
+            pub fn apply(
+                &self,
+                spec: dynaslice_train::spec::TrainSpec,
+            ) -> dynaslice_train::spec::TrainSpec {
+                self.0.apply(spec)
+            }
+        }
+
+        impl clap::FromArgMatches for $name {
+            fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
+                Ok($name($crate::options::Given::of(m, &$flags)))
+            }
+            fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
+                *self = Self::from_arg_matches(m)?;
+                Ok(())
+            }
+        }
+
+        impl clap::Args for $name {
+            fn augment_args(cmd: clap::Command) -> clap::Command {
+                $crate::options::Given::augment(cmd, &$flags)
+            }
+            fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+                Self::augment_args(cmd)
+            }
+        }
+    };
+}
+pub(crate) use flag_args;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -188,15 +328,15 @@ mod tests {
             assert!(finite_f64(bad).is_err(), "{bad}");
         }
         assert!(finite_f32("1e39").unwrap_err().contains("32-bit"));
-        let p = positive_f32(10.0);
+        let p = |s| real_f32(s, 0.0, true, 10.0);
         assert_eq!(p("10"), Ok(10.0));
         for bad in ["0", "-1", "10.5", "1e-50", "NaN"] {
             assert!(p(bad).is_err(), "{bad}");
         }
         let e = p("0").unwrap_err();
         assert!(e.contains("> 0") && e.contains("10"), "{e}");
-        assert_eq!(non_negative_f32(1.0)("0"), Ok(0.0));
-        assert!(non_negative_f32(1.0)("-0.1").is_err());
+        assert_eq!(real_f32("0", 0.0, false, 1.0), Ok(0.0));
+        assert!(real_f32("-0.1", 0.0, false, 1.0).is_err());
         assert!(positive_f64("0").is_err() && positive_f64("1e-300").is_ok());
     }
 

@@ -176,56 +176,91 @@ impl InputSpec {
         (!entries.is_empty()).then(|| entries.join("; "))
     }
 
+    /// The input options by the command line's flag names (without `--`): what
+    /// [`InputSpec::set`] and [`InputSpec::reading`] take.
+    pub const KEYS: [&'static str; 11] = [
+        "frames",
+        "label-names",
+        "planes",
+        "drawn-axes",
+        "roi-extent",
+        "rotated-planes",
+        "axial-step",
+        "labels",
+        "pixel",
+        "nesting",
+        "header-spacing",
+    ];
+
+    /// Sets option `key` (one of [`InputSpec::KEYS`], `_` or `-`) from the command line's text
+    /// of it, parsed as the flag's: the one reading of a keyword (Python's) or a record's entry.
+    /// An error says what is wrong with the value (a list's item quoted).
+    pub fn set(&mut self, key: &str, value: &str) -> std::result::Result<(), String> {
+        fn parse<T: std::str::FromStr>(value: &str) -> std::result::Result<T, String>
+        where
+            T::Err: std::fmt::Display,
+        {
+            value.trim().parse().map_err(|e: T::Err| e.to_string())
+        }
+        match key.replace('_', "-").as_str() {
+            "frames" => self.frames = Some(parse(value)?),
+            "label-names" => self.label_names = Some(PathBuf::from(value)),
+            "planes" => self.planes = Some(parse(value)?),
+            "drawn-axes" => self.drawn_axes = Some(parse(value)?),
+            "roi-extent" => self.roi_extent = Some(parse(value)?),
+            "rotated-planes" => self.rotated_planes = Some(parse(value)?),
+            "axial-step" => self.axial_step = Some(parse(value)?),
+            "labels" => {
+                let item = |l: &str| parse(l).map_err(|e| format!("{:?}: {e}", l.trim()));
+                self.labels = Some(
+                    value
+                        .split(',')
+                        .map(item)
+                        .collect::<std::result::Result<_, _>>()?,
+                )
+            }
+            "pixel" => self.pixel = Some(parse(value)?),
+            "nesting" => self.nesting = Some(parse(value)?),
+            "header-spacing" => self.header_spacing = Some(parse(value)?),
+            _ => return Err(format!("{key:?} is not an input option")),
+        }
+        Ok(())
+    }
+
+    /// Whether option `key` (one of [`InputSpec::KEYS`]) is given.
+    fn is_set(&self, key: &str) -> bool {
+        match key {
+            "frames" => self.frames.is_some(),
+            "label-names" => self.label_names.is_some(),
+            "planes" => self.planes.is_some(),
+            "drawn-axes" => self.drawn_axes.is_some(),
+            "roi-extent" => self.roi_extent.is_some(),
+            "rotated-planes" => self.rotated_planes.is_some(),
+            "axial-step" => self.axial_step.is_some(),
+            "labels" => self.labels.is_some(),
+            "pixel" => self.pixel.is_some(),
+            "nesting" => self.nesting.is_some(),
+            "header-spacing" => self.header_spacing.is_some(),
+            _ => false,
+        }
+    }
+
     /// This spec with every option it leaves unset taken from `reading` ([`InputSpec::reading`]'s
     /// text): what the user gives wins, what they leave out is read as the model's training
     /// read it. An entry that does not parse is an error naming it.
     pub fn with_reading(mut self, reading: &str) -> std::result::Result<InputSpec, String> {
-        fn parse<T: std::str::FromStr>(key: &str, value: &str) -> std::result::Result<T, String>
-        where
-            T::Err: std::fmt::Display,
-        {
-            value
-                .parse()
-                .map_err(|e| format!("recorded {key}={value}: {e}"))
-        }
         for entry in reading.split("; ").filter(|e| !e.trim().is_empty()) {
             let (key, value) = entry
                 .split_once('=')
                 .ok_or_else(|| format!("recorded reading {entry:?} is not KEY=VALUE"))?;
             let (key, value) = (key.trim(), value.trim());
-            match key {
-                "label-names" => {
-                    self.label_names.get_or_insert_with(|| PathBuf::from(value));
-                }
-                "planes" if self.planes.is_none() => self.planes = Some(parse(key, value)?),
-                "drawn-axes" if self.drawn_axes.is_none() => {
-                    self.drawn_axes = Some(parse(key, value)?)
-                }
-                "roi-extent" if self.roi_extent.is_none() => {
-                    self.roi_extent = Some(parse(key, value)?)
-                }
-                "rotated-planes" if self.rotated_planes.is_none() => {
-                    self.rotated_planes = Some(parse(key, value)?)
-                }
-                "axial-step" if self.axial_step.is_none() => {
-                    self.axial_step = Some(parse(key, value)?)
-                }
-                "labels" if self.labels.is_none() => {
-                    self.labels = Some(
-                        value
-                            .split(',')
-                            .map(|l| parse(key, l.trim()))
-                            .collect::<std::result::Result<_, _>>()?,
-                    )
-                }
-                "pixel" if self.pixel.is_none() => self.pixel = Some(parse(key, value)?),
-                "nesting" if self.nesting.is_none() => self.nesting = Some(parse(key, value)?),
-                "header-spacing" if self.header_spacing.is_none() => {
-                    self.header_spacing = Some(parse(key, value)?)
-                }
-                "planes" | "drawn-axes" | "roi-extent" | "rotated-planes" | "axial-step"
-                | "labels" | "pixel" | "nesting" | "header-spacing" => {}
-                _ => return Err(format!("recorded reading {key:?} is not an input option")),
+            // `frames` is recorded on its own (the run record's `frames`), not in the reading.
+            if key == "frames" || !Self::KEYS.contains(&key) {
+                return Err(format!("recorded reading {key:?} is not an input option"));
+            }
+            if !self.is_set(key) {
+                self.set(key, value)
+                    .map_err(|e| format!("recorded {key}={value}: {e}"))?;
             }
         }
         Ok(self)
@@ -285,5 +320,14 @@ mod tests {
         assert!(e.contains("recorded planes=flat"), "{e}");
         let e = InputSpec::default().with_reading("colour=red").unwrap_err();
         assert!(e.contains("not an input option"), "{e}");
+        // Python's keywords: underscores, and a list's bad item quoted.
+        let mut spec = InputSpec::default();
+        spec.set("rotated_planes", "8").unwrap();
+        assert_eq!(spec.rotated_planes, Some(8));
+        assert_eq!(
+            spec.set("labels", "1,x").unwrap_err().split(':').next(),
+            Some("\"x\"")
+        );
+        assert!(spec.set("colour", "red").is_err());
     }
 }

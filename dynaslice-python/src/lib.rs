@@ -33,11 +33,6 @@ pub(crate) fn core_error(e: dynaslice_core::Error) -> PyErr {
     DynasliceError::new_err(e.to_string())
 }
 
-/// An input-reading error (it names the file and the place) as a Python exception.
-pub(crate) fn data_error(e: dynaslice_data::DataError) -> PyErr {
-    DynasliceError::new_err(e.to_string())
-}
-
 /// Runs `f` with the GIL released; its error becomes a DynasliceError with the full cause
 /// chain, as `dynaslice` prints it (`error: {e:#}`).
 pub(crate) fn detach_result<T: Send>(

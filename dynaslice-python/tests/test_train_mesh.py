@@ -148,7 +148,7 @@ def test_train_errors_and_interrupts(tmp_path):
     timer = threading.Timer(1.0, _thread.interrupt_main)
     try:
         timer.start()
-        with pytest.raises(KeyboardInterrupt, match="checkpoint saved to .*m.dsm.ckpt"):
+        with pytest.raises(KeyboardInterrupt, match="checkpoint .*m.dsm.ckpt saved"):
             dynaslice.train(sections, out, steps=100_000, threads=1, progress=False, **SMALL)
     finally:
         timer.join()

@@ -65,12 +65,15 @@ impl Default for SampleCounts {
     /// at equal wall time (chambers IoU 0.975 against 0.866 in 1.5 min). Past 3 classes the
     /// classes share the budget of 3, at least 64 samples each.
     fn default() -> Self {
+        // From the table of options, as `dynaslice train --help` shows them.
+        use crate::flags::*;
+        let count = |f: &Flag| f.default.whole() as usize;
         SampleCounts {
-            contour_per_class: 1024,
-            plane_per_class: 1024,
-            space: 1024,
-            budget_classes: 3,
-            min_per_class: 64,
+            contour_per_class: count(&CONTOUR_SAMPLES),
+            plane_per_class: count(&PLANE_SAMPLES),
+            space: count(&SPACE_SAMPLES),
+            budget_classes: count(&BUDGET_CLASSES),
+            min_per_class: count(&MIN_CLASS_SAMPLES),
         }
     }
 }

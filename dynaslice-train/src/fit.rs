@@ -115,6 +115,17 @@ pub trait Observer {
     fn step(&mut self, progress: &Progress) -> ControlFlow<()>;
     /// A line for the user (e.g. "resumed from … at step 120 of 3000").
     fn note(&mut self, line: &str);
+    /// The check of the finished model against its input ([`crate::job::run`]): `done` of
+    /// `total` times meshed. Nothing by default.
+    fn checking(&mut self, done: usize, total: usize) {
+        let _ = (done, total);
+    }
+    /// A warning about the finished model (a class reaching far past its contours): by default
+    /// a `log` warning, which the command line prints as `warning: …` and Python's `logging`
+    /// receives (logger `dynaslice_train.fit`).
+    fn warning(&mut self, line: &str) {
+        log::warn!("{line}");
+    }
 }
 
 /// An observer that lets the run go to the end and says nothing.
@@ -129,7 +140,7 @@ impl Observer for Quiet {
 
 /// A run's result.
 pub struct Trained {
-    /// The model file, validated.
+    /// The model file (validated by [`fit`], and by [`crate::job::run`] before it is written).
     pub bytes: ModelBytes,
     /// The loss rows from step 1.
     pub rows: Vec<LossRow>,
@@ -176,7 +187,8 @@ impl Trained {
 /// Trains a model of `seq` as `spec` asks. With `files`, the run checkpoints beside
 /// `files.model` and journals its loss rows, and resumes from an earlier checkpoint where
 /// `spec.resume` says so (see [`RunFiles::check_state`]); without, it keeps everything in
-/// memory (the lab, benchmarks). Option errors come before any work, as [`SpecError`]s.
+/// memory (the lab, benchmarks). Option errors come before any work, as [`SpecError`]s. The
+/// whole run with its files is [`crate::job::run`].
 pub fn fit(
     seq: &Sequence,
     spec: &TrainSpec,
@@ -185,6 +197,32 @@ pub fn fit(
     observer: &mut dyn Observer,
 ) -> Result<Trained> {
     spec.validate()?;
+    let files = match files {
+        Some(f) => Some((f, f.check_state(spec)?)),
+        None => None,
+    };
+    let trained = fit_checked(seq, spec, input, files, observer)?;
+    trained
+        .bytes
+        .model()
+        .map_err(|e| anyhow!("the trained model does not validate: {e}"))?;
+    Ok(trained)
+}
+
+/// [`fit`] for a caller that has validated `spec` and decided the checkpoint's fate
+/// (`files` with whether the run resumes), and validates the model it returns itself: each
+/// check runs once per run.
+pub(crate) fn fit_checked(
+    seq: &Sequence,
+    spec: &TrainSpec,
+    input: &InputRecord,
+    files: Option<(&RunFiles, bool)>,
+    observer: &mut dyn Observer,
+) -> Result<Trained> {
+    let (files, resuming) = match files {
+        Some((f, resuming)) => (Some(f), resuming),
+        None => (None, false),
+    };
     let classes = seq.classes();
     spec.check_classes(classes.len())?;
     let domain = domain_for(seq);
@@ -195,10 +233,6 @@ pub fn fit(
         spec.temporal_factor(),
         !spec.no_temporal_control,
     );
-    let resuming = match files {
-        Some(f) => f.check_state(spec)?,
-        None => false,
-    };
     let options = spec.options(omega_t_max, files.map(|f| f.checkpoint.clone()));
     let counts = spec.counts();
     observer.note(&format!(
@@ -293,9 +327,6 @@ pub fn fit(
     }
     .to_bytes()
     .map_err(|e| anyhow!("cannot write the model: {e}"))?;
-    bytes
-        .model()
-        .map_err(|e| anyhow!("the trained model does not validate: {e}"))?;
     Ok(Trained {
         bytes,
         rows: journal.into_rows(outcome.steps_done),

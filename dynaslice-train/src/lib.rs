@@ -11,9 +11,12 @@
 //! - [`adam`]: the optimiser; [`checkpoint`]: resumable state.
 //! - [`mod@bench`]: step throughput against the machine's sgemm peak.
 //! - [`trainer`]: the loop, with its schedule, time limit and checkpoints.
-//! - [`spec`]: every option of a run, its default and its allowed range; [`fit`]: the one
+//! - [`flags`]: the table of training options (name, help, default, limit);
+//!   [`spec`]: every option of a run, its default and its allowed range; [`fit`]: the one
 //!   training entry (checks, frame, sampler, loop, loss [`journal`], model bytes) that the
-//!   command line, Python and the lab adapt.
+//!   command line, Python and the lab adapt; [`job`]: the whole run with its files (input,
+//!   outputs, checkpoint, loss log and curve, extent warnings) that `dynaslice train` and
+//!   Python's `dynaslice.train` call.
 //! - [`model_file`]: a trained network's model file and the metadata it records.
 
 #![warn(missing_docs)]
@@ -23,6 +26,8 @@ pub mod bench;
 pub mod checkpoint;
 pub mod data_sampler;
 pub mod fit;
+pub mod flags;
+pub mod job;
 pub mod journal;
 pub mod loss;
 mod matmul;

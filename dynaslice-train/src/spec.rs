@@ -4,157 +4,22 @@
 //! sample budget, the allowed ranges), so that the front ends cannot drift: they map their flags
 //! and keywords onto it and [`crate::fit::fit`] does the rest.
 //!
-//! The ranges are also what the command line's value parsers check at parse time
-//! ([`Limit::check`] gives both the same "out of range; allowed: …" text).
+//! The defaults and ranges are the table of options' ([`crate::flags`]), which the command
+//! line's value parsers check at parse time ([`Limit::check`] gives both the same "out of
+//! range; allowed: …" text).
 
 use crate::data_sampler::SampleCounts;
+use crate::flags::*;
+// The limits and the option errors are the table's; their old paths stay.
+pub use crate::flags::{
+    Limit, SpecError, DEFAULT_CHECKPOINT_MINUTES, DEFAULT_OMEGA_0, DEFAULT_STEPS, MAX_LR,
+    MAX_MINUTES, MAX_OFFSET, MAX_OMEGA_0, MAX_SAMPLES_PER_STEP, MAX_STEPS, MAX_TEMPORAL_FACTOR,
+    MAX_THREADS, MAX_WEIGHT,
+};
 use crate::loss::LossWeights;
-use crate::temporal_bound::DEFAULT_TEMPORAL_FACTOR;
 use crate::trainer::TrainOptions;
-use dynaslice_core::format::{MAX_CLASSES, MAX_SINE_LAYERS, MAX_WIDTH};
+use dynaslice_core::format::MAX_SINE_LAYERS;
 use std::time::Duration;
-
-/// Optimisation steps at most (a run's loss history holds one row per step).
-pub const MAX_STEPS: u64 = 10_000_000;
-/// Minutes of `minutes` and `checkpoint_minutes`: a year, and within `Duration`'s range.
-pub const MAX_MINUTES: f64 = 525_600.0;
-/// Worker threads: far above any machine this runs on, small enough that a typo cannot spawn a
-/// process-choking number of threads.
-pub const MAX_THREADS: usize = 1024;
-/// Samples per class (contour, plane) or per step (space-time).
-pub const MAX_SAMPLES_PER_STEP: usize = 1 << 20;
-/// ω₀: two orders of magnitude above the documented useful range (10–30).
-pub const MAX_OMEGA_0: f32 = 10_000.0;
-/// c of ω_t^max = c·π/Δt (Eq. 4).
-pub const MAX_TEMPORAL_FACTOR: f32 = 1000.0;
-/// The initial learning rate (Adam; useful values are around 1e-4 to 1e-2).
-pub const MAX_LR: f32 = 10.0;
-/// Loss weights λ, α and per-class weights.
-pub const MAX_WEIGHT: f32 = 1e6;
-/// |`init_offset`| at most, in normalised units (the domain's half-width is 1).
-pub const MAX_OFFSET: f32 = 100.0;
-/// Steps of an untimed run without `steps`.
-pub const DEFAULT_STEPS: u64 = 3000;
-/// Minutes between checkpoints without `checkpoint_minutes`.
-pub const DEFAULT_CHECKPOINT_MINUTES: f64 = 2.0;
-/// ω₀ without `omega0`. 20 rather than 10: at 10 a 17 mm tumour beside the lungs is missed, a
-/// kidney of the TotalSegmentator map grows 10× past the image at 300 steps and a hand's thin
-/// fingers are lost; at 20 all three come out, the thin tube gains 0.03 IoU, and OReX's smooth
-/// `.csl` shapes move by −0.010 to +0.008 (lab/notes/2026-12-04-omega.md).
-pub const DEFAULT_OMEGA_0: f32 = 20.0;
-
-/// An option's allowed values: a closed or half-open interval of reals, or whole numbers.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Limit {
-    lo: f64,
-    /// `lo` itself excluded.
-    open: bool,
-    hi: f64,
-    whole: bool,
-}
-
-impl Limit {
-    /// Reals in (0, `hi`].
-    pub const fn positive(hi: f64) -> Limit {
-        Limit {
-            lo: 0.0,
-            open: true,
-            hi,
-            whole: false,
-        }
-    }
-
-    /// Reals in [0, `hi`].
-    pub const fn non_negative(hi: f64) -> Limit {
-        Limit {
-            lo: 0.0,
-            open: false,
-            hi,
-            whole: false,
-        }
-    }
-
-    /// Reals in [`lo`, `hi`].
-    pub const fn between(lo: f64, hi: f64) -> Limit {
-        Limit {
-            lo,
-            open: false,
-            hi,
-            whole: false,
-        }
-    }
-
-    /// Whole numbers in [`lo`, `hi`].
-    pub const fn count(lo: u64, hi: u64) -> Limit {
-        Limit {
-            lo: lo as f64,
-            open: false,
-            hi: hi as f64,
-            whole: true,
-        }
-    }
-
-    /// What the limit allows, in words.
-    pub fn allowed(&self) -> String {
-        match (self.whole, self.open, self.lo, self.hi) {
-            (true, ..) => format!("a whole number from {} to {}", self.lo, self.hi),
-            (_, _, f64::NEG_INFINITY, f64::INFINITY) => "any finite number".to_string(),
-            (_, true, 0.0, f64::INFINITY) => "a finite number > 0".to_string(),
-            (_, false, 0.0, f64::INFINITY) => "a finite number ≥ 0".to_string(),
-            (_, true, lo, hi) => format!("a number > {lo} and ≤ {hi}"),
-            (_, false, lo, hi) => format!("a number from {lo} to {hi}"),
-        }
-    }
-
-    /// `v` if the limit allows it, else "out of range; allowed: …" (or "not a finite number;
-    /// allowed: …"): the text the command line's parsers and Python's keyword checks share.
-    pub fn check(&self, v: f64) -> Result<f64, String> {
-        if !v.is_finite() {
-            return Err(format!("not a finite number; allowed: {}", self.allowed()));
-        }
-        if v < self.lo
-            || (self.open && v == self.lo)
-            || v > self.hi
-            || (self.whole && v.fract() != 0.0)
-        {
-            return Err(format!("out of range; allowed: {}", self.allowed()));
-        }
-        Ok(v)
-    }
-}
-
-/// The limits of the training options, by the option's name (CLI `--steps` is `steps`).
-pub mod limits {
-    use super::*;
-    /// `steps`.
-    pub const STEPS: Limit = Limit::count(1, MAX_STEPS);
-    /// `minutes`.
-    pub const MINUTES: Limit = Limit::positive(MAX_MINUTES);
-    /// `threads`.
-    pub const THREADS: Limit = Limit::count(1, MAX_THREADS as u64);
-    /// Each of `widths`.
-    pub const WIDTH: Limit = Limit::count(1, MAX_WIDTH as u64);
-    /// `omega0`.
-    pub const OMEGA_0: Limit = Limit::positive(MAX_OMEGA_0 as f64);
-    /// `init_offset`.
-    pub const OFFSET: Limit = Limit::between(-(MAX_OFFSET as f64), MAX_OFFSET as f64);
-    /// `temporal_factor`.
-    pub const TEMPORAL_FACTOR: Limit = Limit::positive(MAX_TEMPORAL_FACTOR as f64);
-    /// `lr`.
-    pub const LR: Limit = Limit::positive(MAX_LR as f64);
-    /// `warmup_steps`.
-    pub const WARMUP_STEPS: Limit = Limit::count(0, MAX_STEPS);
-    /// `lambda_orientation`, `lambda_plane`, `lambda_regulariser`, `alpha`.
-    pub const LOSS_WEIGHT: Limit = Limit::non_negative(MAX_WEIGHT as f64);
-    /// Each of `class_weights`.
-    pub const CLASS_WEIGHT: Limit = Limit::positive(MAX_WEIGHT as f64);
-    /// `contour_samples`, `plane_samples`, `space_samples`, `min_class_samples`.
-    pub const SAMPLES: Limit = Limit::count(1, MAX_SAMPLES_PER_STEP as u64);
-    /// `budget_classes`.
-    pub const BUDGET_CLASSES: Limit = Limit::count(1, MAX_CLASSES as u64);
-    /// `checkpoint_minutes` (0: after every step).
-    pub const CHECKPOINT_MINUTES: Limit = Limit::non_negative(MAX_MINUTES);
-}
 
 /// Every option of a training run; `None` (or `false`) is the default. Field names are the
 /// command line's flags with `_` for `-`, and Python's keywords.
@@ -214,47 +79,11 @@ pub struct TrainSpec {
     pub force: bool,
 }
 
-/// A bad option: its name (as in [`TrainSpec`]) and what is wrong.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct SpecError {
-    /// The option's name, e.g. `lr` (the command line's `--lr`).
-    pub option: &'static str,
-    /// What is wrong, e.g. "-1: out of range; allowed: a number > 0 and ≤ 10".
-    pub message: String,
-}
-
-impl std::fmt::Display for SpecError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "--{}: {}", self.option.replace('_', "-"), self.message)
-    }
-}
-
-impl std::error::Error for SpecError {}
-
-/// Checks `v` of option `option` against `limit`.
-fn check<T: Copy + Into<f64> + std::fmt::Display>(
-    option: &'static str,
-    v: Option<T>,
-    limit: Limit,
-) -> Result<(), SpecError> {
-    match v {
-        Some(v) => limit.check(v.into()).map(drop).map_err(|m| SpecError {
-            option,
-            message: format!("{v}: {m}"),
-        }),
-        None => Ok(()),
-    }
-}
-
 impl TrainSpec {
     /// Every option against its limit, and the counts that depend on nothing else (the number
     /// of `widths`); what depends on the data ([`TrainSpec::check_classes`]) is checked by
     /// [`crate::fit::fit`] once the input is read, still before any training.
     pub fn validate(&self) -> Result<(), SpecError> {
-        use limits::*;
-        check("steps", self.steps.map(|v| v as f64), STEPS)?;
-        check("minutes", self.minutes, MINUTES)?;
-        check("threads", self.threads.map(|v| v as f64), THREADS)?;
         if let Some(w) = &self.widths {
             if w.is_empty() || w.len() > MAX_SINE_LAYERS {
                 return Err(SpecError {
@@ -265,45 +94,20 @@ impl TrainSpec {
                     ),
                 });
             }
-            for &v in w {
-                check("widths", Some(v), WIDTH)?;
+        }
+        for flag in FLAGS {
+            let Some(limit) = flag.limit else { continue };
+            for v in self.numbers(flag.name) {
+                limit.check(v).map_err(|m| SpecError {
+                    option: flag.name,
+                    // As given: an f32 option's value as the f32 it is (0.1, not 0.100000001…).
+                    message: match flag.values {
+                        Values::Real32 | Values::Reals32 => format!("{}: {m}", v as f32),
+                        _ => format!("{v}: {m}"),
+                    },
+                })?;
             }
         }
-        check("omega0", self.omega0, OMEGA_0)?;
-        check("init_offset", self.init_offset, OFFSET)?;
-        check("temporal_factor", self.temporal_factor, TEMPORAL_FACTOR)?;
-        check("lr", self.lr, LR)?;
-        check(
-            "warmup_steps",
-            self.warmup_steps.map(|v| v as f64),
-            WARMUP_STEPS,
-        )?;
-        check("lambda_orientation", self.lambda_orientation, LOSS_WEIGHT)?;
-        check("lambda_plane", self.lambda_plane, LOSS_WEIGHT)?;
-        check("lambda_regulariser", self.lambda_regulariser, LOSS_WEIGHT)?;
-        check("alpha", self.alpha, LOSS_WEIGHT)?;
-        let samples = |v: Option<usize>| v.map(|v| v as f64);
-        check("contour_samples", samples(self.contour_samples), SAMPLES)?;
-        check("plane_samples", samples(self.plane_samples), SAMPLES)?;
-        check("space_samples", samples(self.space_samples), SAMPLES)?;
-        check(
-            "min_class_samples",
-            samples(self.min_class_samples),
-            SAMPLES,
-        )?;
-        check(
-            "budget_classes",
-            samples(self.budget_classes),
-            BUDGET_CLASSES,
-        )?;
-        for &w in self.class_weights.iter().flatten() {
-            check("class_weights", Some(w), CLASS_WEIGHT)?;
-        }
-        check(
-            "checkpoint_minutes",
-            self.checkpoint_minutes,
-            CHECKPOINT_MINUTES,
-        )?;
         Ok(())
     }
 
@@ -320,12 +124,13 @@ impl TrainSpec {
 
     /// The learning rate (the default where not given).
     pub fn lr(&self) -> f32 {
-        self.lr.unwrap_or(TrainOptions::default().lr)
+        self.lr.unwrap_or(LR.default.real() as f32)
     }
 
     /// c of Eq. 4.
     pub fn temporal_factor(&self) -> f32 {
-        self.temporal_factor.unwrap_or(DEFAULT_TEMPORAL_FACTOR)
+        self.temporal_factor
+            .unwrap_or(TEMPORAL_FACTOR.default.real() as f32)
     }
 
     /// The samples each step draws.
@@ -379,7 +184,7 @@ impl TrainSpec {
             widths: self.widths.clone().unwrap_or(d.widths),
             steps: self.schedule_steps(),
             time_limit: self.minutes.map(|m| Duration::from_secs_f64(m * 60.0)),
-            omega_0: self.omega0.unwrap_or(DEFAULT_OMEGA_0),
+            omega_0: self.omega0.unwrap_or(d.omega_0),
             offset: self.init_offset.unwrap_or(d.offset),
             seed: self.seed.unwrap_or(d.seed),
             threads: self.threads.unwrap_or(d.threads).max(1),
@@ -391,7 +196,7 @@ impl TrainSpec {
             checkpoint,
             checkpoint_every: Duration::from_secs_f64(
                 self.checkpoint_minutes
-                    .unwrap_or(DEFAULT_CHECKPOINT_MINUTES)
+                    .unwrap_or(CHECKPOINT_MINUTES.default.real())
                     * 60.0,
             ),
             resume: self.resume,
@@ -399,33 +204,155 @@ impl TrainSpec {
     }
 }
 
+impl TrainSpec {
+    /// Sets option `name` (a [`FLAGS`] name) to `value`, converted to the option's type as the
+    /// command line's parser converts it. The value is checked by [`TrainSpec::validate`]; an
+    /// unknown name or a value of the wrong kind is an error naming the option.
+    pub fn set(&mut self, name: &str, value: Value) -> Result<(), SpecError> {
+        let flag = find(name).ok_or_else(|| SpecError {
+            option: "option",
+            message: format!("{name:?} is not a training option"),
+        })?;
+        let wrong = || SpecError {
+            option: flag.name,
+            message: format!("{value:?} is not {:?}", flag.values),
+        };
+        let whole = |v: &Value| match *v {
+            Value::Whole(v) => Some(v),
+            _ => None,
+        };
+        let real = |v: &Value| match *v {
+            Value::Real(v) => Some(v),
+            _ => None,
+        };
+        let switch = |v: &Value| match *v {
+            Value::Switch(v) => Some(v),
+            _ => None,
+        };
+        // Counts beyond the field's type saturate: the limit check then refuses them.
+        let size = |v: u64| usize::try_from(v).unwrap_or(usize::MAX);
+        match name {
+            "steps" => self.steps = Some(whole(&value).ok_or_else(wrong)?),
+            "minutes" => self.minutes = Some(real(&value).ok_or_else(wrong)?),
+            "seed" => self.seed = Some(whole(&value).ok_or_else(wrong)?),
+            "threads" => self.threads = Some(size(whole(&value).ok_or_else(wrong)?)),
+            "resume" => self.resume = switch(&value).ok_or_else(wrong)?,
+            "force" => self.force = switch(&value).ok_or_else(wrong)?,
+            "no_temporal_control" => self.no_temporal_control = switch(&value).ok_or_else(wrong)?,
+            "no_orientation" => self.no_orientation = switch(&value).ok_or_else(wrong)?,
+            "widths" => match &value {
+                Value::Wholes(w) => {
+                    self.widths = Some(
+                        w.iter()
+                            .map(|&v| u32::try_from(v).unwrap_or(u32::MAX))
+                            .collect(),
+                    )
+                }
+                _ => return Err(wrong()),
+            },
+            "omega0" => self.omega0 = Some(real(&value).ok_or_else(wrong)? as f32),
+            "init_offset" => self.init_offset = Some(real(&value).ok_or_else(wrong)? as f32),
+            "temporal_factor" => {
+                self.temporal_factor = Some(real(&value).ok_or_else(wrong)? as f32)
+            }
+            "lr" => self.lr = Some(real(&value).ok_or_else(wrong)? as f32),
+            "warmup_steps" => self.warmup_steps = Some(whole(&value).ok_or_else(wrong)?),
+            "lambda_orientation" => {
+                self.lambda_orientation = Some(real(&value).ok_or_else(wrong)? as f32)
+            }
+            "lambda_plane" => self.lambda_plane = Some(real(&value).ok_or_else(wrong)? as f32),
+            "lambda_regulariser" => {
+                self.lambda_regulariser = Some(real(&value).ok_or_else(wrong)? as f32)
+            }
+            "alpha" => self.alpha = Some(real(&value).ok_or_else(wrong)? as f32),
+            "contour_samples" => {
+                self.contour_samples = Some(size(whole(&value).ok_or_else(wrong)?))
+            }
+            "plane_samples" => self.plane_samples = Some(size(whole(&value).ok_or_else(wrong)?)),
+            "budget_classes" => self.budget_classes = Some(size(whole(&value).ok_or_else(wrong)?)),
+            "min_class_samples" => {
+                self.min_class_samples = Some(size(whole(&value).ok_or_else(wrong)?))
+            }
+            "space_samples" => self.space_samples = Some(size(whole(&value).ok_or_else(wrong)?)),
+            "class_weights" => match &value {
+                Value::Reals(w) => self.class_weights = Some(w.iter().map(|&v| v as f32).collect()),
+                _ => return Err(wrong()),
+            },
+            "checkpoint_minutes" => self.checkpoint_minutes = Some(real(&value).ok_or_else(wrong)?),
+            _ => unreachable!("every flag of the table is set above (test: every_flag_sets)"),
+        }
+        Ok(())
+    }
+
+    /// The values the spec gives option `name` (empty where it gives none), as numbers for the
+    /// limit check: what [`TrainSpec::validate`] checks against [`FLAGS`].
+    pub(crate) fn numbers(&self, name: &str) -> Vec<f64> {
+        let one = |v: Option<f64>| v.into_iter().collect::<Vec<f64>>();
+        match name {
+            "steps" => one(self.steps.map(|v| v as f64)),
+            "minutes" => one(self.minutes),
+            "seed" => one(self.seed.map(|v| v as f64)),
+            "threads" => one(self.threads.map(|v| v as f64)),
+            "widths" => self.widths.iter().flatten().map(|&v| v.into()).collect(),
+            "omega0" => one(self.omega0.map(f64::from)),
+            "init_offset" => one(self.init_offset.map(f64::from)),
+            "temporal_factor" => one(self.temporal_factor.map(f64::from)),
+            "lr" => one(self.lr.map(f64::from)),
+            "warmup_steps" => one(self.warmup_steps.map(|v| v as f64)),
+            "lambda_orientation" => one(self.lambda_orientation.map(f64::from)),
+            "lambda_plane" => one(self.lambda_plane.map(f64::from)),
+            "lambda_regulariser" => one(self.lambda_regulariser.map(f64::from)),
+            "alpha" => one(self.alpha.map(f64::from)),
+            "contour_samples" => one(self.contour_samples.map(|v| v as f64)),
+            "plane_samples" => one(self.plane_samples.map(|v| v as f64)),
+            "budget_classes" => one(self.budget_classes.map(|v| v as f64)),
+            "min_class_samples" => one(self.min_class_samples.map(|v| v as f64)),
+            "space_samples" => one(self.space_samples.map(|v| v as f64)),
+            "class_weights" => self
+                .class_weights
+                .iter()
+                .flatten()
+                .map(|&v| v.into())
+                .collect(),
+            "checkpoint_minutes" => one(self.checkpoint_minutes),
+            // Switches: nothing to check.
+            _ => Vec::new(),
+        }
+    }
+}
+
 impl Default for TrainOptions {
-    /// The defaults of `dynaslice train`: the paper's network size (4 sine layers of 256),
-    /// 3000 steps, ω₀ = 20 ([`DEFAULT_OMEGA_0`]), initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1, λ_r = 0.2, α = 50, all threads,
-    /// no checkpoint; `omega_t_max` must be set from the data ([`crate::temporal_bound::temporal_bound`]).
+    /// The defaults of `dynaslice train`, from the table of options ([`crate::flags`]): the
+    /// paper's network size (4 sine layers of 256), [`DEFAULT_STEPS`] steps, ω₀ =
+    /// [`DEFAULT_OMEGA_0`], initial offset 0.2, lr 1e-3 → 1e-4 (cosine), λ_n = λ_d = 0.1,
+    /// λ_r = 0.2, α = 50, all threads, no checkpoint; `omega_t_max` must be set from the data
+    /// ([`crate::temporal_bound::temporal_bound`]).
     fn default() -> Self {
+        let real = |f: &Flag| f.default.real() as f32;
+        let widths = match WIDTHS.default {
+            DefaultValue::Wholes(w) => w.to_vec(),
+            _ => unreachable!("widths default to a list"),
+        };
         TrainOptions {
-            widths: vec![256; 4],
+            widths,
             steps: DEFAULT_STEPS,
             time_limit: None,
-            omega_0: DEFAULT_OMEGA_0,
-            offset: 0.2,
-            seed: 0,
-            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
-            lr: 1e-3,
+            omega_0: real(&OMEGA0),
+            offset: real(&INIT_OFFSET),
+            seed: SEED.default.whole(),
+            threads: THREADS.default.whole() as usize,
+            lr: real(&LR),
             lr_final: 1e-4,
-            warmup_steps: 0,
+            warmup_steps: WARMUP_STEPS.default.whole(),
             loss: LossWeights {
-                orientation: 0.1,
-                plane: 0.1,
-                // Measured (lab/notes/training.md): 0.05 let real data and the thin tube overfit
-                // between planes; 0.2 is better on both.
-                regulariser: 0.2,
-                alpha: 50.0,
+                orientation: real(&LAMBDA_ORIENTATION),
+                plane: real(&LAMBDA_PLANE),
+                regulariser: real(&LAMBDA_REGULARISER),
+                alpha: real(&ALPHA),
             },
             omega_t_max: f32::INFINITY,
             checkpoint: None,
-            checkpoint_every: Duration::from_secs_f64(DEFAULT_CHECKPOINT_MINUTES * 60.0),
+            checkpoint_every: Duration::from_secs_f64(CHECKPOINT_MINUTES.default.real() * 60.0),
             resume: false,
         }
     }
@@ -436,20 +363,103 @@ mod tests {
     use super::*;
 
     #[test]
+    fn names_are_unique_and_every_flag_sets() {
+        for (i, f) in FLAGS.iter().enumerate() {
+            assert!(FLAGS[..i].iter().all(|g| g.name != f.name), "{}", f.name);
+            assert_eq!(f.limit.is_none(), f.values == Values::Switch, "{}", f.name);
+            assert!(
+                !f.help.ends_with('.'),
+                "{}: the summary has no final period",
+                f.name
+            );
+            let value = match f.values {
+                Values::Switch => Value::Switch(true),
+                Values::Whole => Value::Whole(2),
+                Values::Real32 | Values::Real64 => Value::Real(2.0),
+                Values::Wholes => Value::Wholes(vec![2, 3]),
+                Values::Reals32 => Value::Reals(vec![2.0, 3.0]),
+            };
+            let mut spec = TrainSpec::default();
+            spec.set(f.name, value).unwrap();
+            assert_ne!(spec, TrainSpec::default(), "{} sets nothing", f.name);
+            if f.values != Values::Switch {
+                assert!(
+                    !spec.numbers(f.name).is_empty(),
+                    "{} is not checked",
+                    f.name
+                );
+                // A value of the wrong kind is refused, naming the option.
+                let e = TrainSpec::default()
+                    .set(f.name, Value::Switch(true))
+                    .unwrap_err();
+                assert_eq!(e.option, f.name);
+            }
+        }
+        assert!(TrainSpec::default().set("omega", Value::Real(1.0)).is_err());
+    }
+
+    #[test]
+    fn the_spec_takes_its_defaults_from_the_table() {
+        let spec = TrainSpec::default();
+        let o = spec.options(1.0, None);
+        let c = spec.counts();
+        let l = spec.loss();
+        let widths: Vec<u64> = o.widths.iter().map(|&w| w.into()).collect();
+        assert_eq!(DefaultValue::Wholes(&[256; 4]), WIDTHS.default);
+        assert_eq!(widths, [256; 4]);
+        for (flag, used) in [
+            (&SEED, o.seed as f64),
+            (&THREADS, o.threads as f64),
+            (&WARMUP_STEPS, o.warmup_steps as f64),
+            (&OMEGA0, o.omega_0.into()),
+            (&INIT_OFFSET, o.offset.into()),
+            (&TEMPORAL_FACTOR, spec.temporal_factor().into()),
+            (&LR, o.lr.into()),
+            (&LAMBDA_ORIENTATION, l.orientation.into()),
+            (&LAMBDA_PLANE, l.plane.into()),
+            (&LAMBDA_REGULARISER, l.regulariser.into()),
+            (&ALPHA, l.alpha.into()),
+            (&CONTOUR_SAMPLES, c.contour_per_class as f64),
+            (&PLANE_SAMPLES, c.plane_per_class as f64),
+            (&BUDGET_CLASSES, c.budget_classes as f64),
+            (&MIN_CLASS_SAMPLES, c.min_per_class as f64),
+            (&SPACE_SAMPLES, c.space as f64),
+            (&CHECKPOINT_MINUTES, o.checkpoint_every.as_secs_f64() / 60.0),
+        ] {
+            let table = match flag.default {
+                DefaultValue::Real(v) => v,
+                d => d.whole() as f64,
+            };
+            assert_eq!(table, used, "{}", flag.name);
+            // Every default is allowed.
+            assert!(flag.limit.unwrap().check(table).is_ok(), "{}", flag.name);
+        }
+        assert_eq!(LR.default.to_string(), "0.001");
+        assert!(STEPS
+            .help
+            .contains(&format!("Default: {}", crate::spec::DEFAULT_STEPS)));
+        assert_eq!(WIDTHS.default.to_string(), "256,256,256,256");
+    }
+
+    #[test]
     fn limits_name_the_range() {
-        assert_eq!(limits::LR.check(1.0), Ok(1.0));
-        let e = limits::LR.check(-1.0).unwrap_err();
+        assert_eq!(LR.limit.unwrap().check(1.0), Ok(1.0));
+        let e = LR.limit.unwrap().check(-1.0).unwrap_err();
         assert_eq!(e, "out of range; allowed: a number > 0 and ≤ 10");
-        assert!(limits::LR
+        assert!(LR
+            .limit
+            .unwrap()
             .check(f64::NAN)
             .unwrap_err()
             .starts_with("not a finite"));
-        assert!(limits::STEPS
+        assert!(STEPS
+            .limit
+            .unwrap()
             .check(0.0)
             .unwrap_err()
             .contains("from 1 to 10000000"));
-        assert!(limits::STEPS.check(1.5).is_err());
-        assert_eq!(limits::CHECKPOINT_MINUTES.check(0.0), Ok(0.0));
+        assert!(STEPS.limit.unwrap().check(1.5).is_err());
+        assert_eq!(CHECKPOINT_MINUTES.limit.unwrap().check(0.0), Ok(0.0));
     }
 
     #[test]

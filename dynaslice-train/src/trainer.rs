@@ -79,6 +79,37 @@ pub struct Progress {
     pub elapsed: f64,
 }
 
+impl Progress {
+    /// The step's figures by name (besides `step` and `steps`): what Python's progress callback
+    /// gets.
+    pub fn figures(&self) -> [(&'static str, f64); 8] {
+        let t = &self.terms;
+        [
+            ("loss", self.loss),
+            ("lr", self.lr.into()),
+            ("elapsed", self.elapsed),
+            ("surface", t.surface),
+            ("orientation", t.orientation),
+            ("plane", t.plane),
+            ("eikonal", t.eikonal),
+            ("spurious", t.spurious),
+        ]
+    }
+}
+
+impl std::fmt::Display for Progress {
+    /// The step's losses for the user: `loss 2.4e-1 (surface …, spurious …) lr 1.0e-4`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let t = &self.terms;
+        write!(
+            f,
+            "loss {:.4e} (surface {:.3e}, orientation {:.3e}, plane {:.3e}, eikonal {:.3e}, \
+             spurious {:.3e}) lr {:.2e}",
+            self.loss, t.surface, t.orientation, t.plane, t.eikonal, t.spurious, self.lr
+        )
+    }
+}
+
 /// Share of the time budget a plan fills: the rest absorbs step-time noise and the final
 /// checkpoint, so the schedule ends before the hard stop. Re-planning keeps the plan true as
 /// the run goes, so little margin is needed.
