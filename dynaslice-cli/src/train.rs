@@ -100,6 +100,8 @@ pub fn run(a: Args) -> Result<()> {
 struct Console {
     bar: Option<ProgressBar>,
     last_log: Instant,
+    /// The index of exact in-plane distances, built before the first step.
+    indexing: Option<Bar>,
     /// The check of the classes' extents after training.
     checking: Option<Bar>,
 }
@@ -120,6 +122,7 @@ impl Console {
         Console {
             bar,
             last_log: Instant::now(),
+            indexing: None,
             checking: None,
         }
     }
@@ -159,6 +162,18 @@ impl Observer for Console {
         match &self.bar {
             Some(bar) => bar.println(line),
             None => errln!("{line}"),
+        }
+    }
+
+    fn indexing(&mut self, done: usize, total: usize) {
+        let bar = self.indexing.get_or_insert_with(|| {
+            Bar::new("building the sampling index: annotation", total as u64)
+        });
+        bar.set_position(done as u64);
+        if done == total {
+            if let Some(bar) = self.indexing.take() {
+                bar.finish();
+            }
         }
     }
 

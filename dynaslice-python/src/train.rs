@@ -83,6 +83,9 @@ pub fn train(
     Err(e)
 }
 
+/// How often the index's progress is printed while it is built.
+const INDEXING_LINES: Duration = Duration::from_secs(5);
+
 /// The run as Python sees it: the `progress` callback and Ctrl-C, polled at most every
 /// [`POLL`] (the last poll's time); why training stopped early (Ctrl-C or the callback's
 /// exception), raised after the job.
@@ -114,5 +117,13 @@ impl Observer for Watch {
     fn note(&mut self, line: &str) {
         // Where `dynaslice train` prints it: standard error.
         eprintln!("{line}");
+    }
+
+    fn indexing(&mut self, done: usize, total: usize) {
+        // A line every few seconds, as the command line prints one, and the last.
+        if done == total || self.2.is_none_or(|t| t.elapsed() >= INDEXING_LINES) {
+            eprintln!("building the sampling index: annotation {done}/{total}");
+            self.2 = Some(Instant::now());
+        }
     }
 }

@@ -173,6 +173,17 @@ pub struct DataSampler {
 impl DataSampler {
     /// Indexes `seq` for sampling in `domain`.
     pub fn new(seq: &Sequence, domain: Domain, counts: SampleCounts) -> DataSampler {
+        Self::with_progress(seq, domain, counts, &mut |_, _| {})
+    }
+
+    /// [`DataSampler::new`], telling `progress(done, total)` how far the index of exact
+    /// in-plane distances is built ([`SamplingIndex::with_progress`]).
+    pub fn with_progress(
+        seq: &Sequence,
+        domain: Domain,
+        counts: SampleCounts,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> DataSampler {
         let (lo, hi) = domain.bounds();
         let s = domain.scale[0] as f64;
         let (t0, t1) = domain.time_range();
@@ -189,7 +200,7 @@ impl DataSampler {
         .fold(dynaslice_sequence::native::digest(seq), |h, &c| {
             (h ^ c as u64).wrapping_mul(0x100_0000_01b3)
         });
-        let index = SamplingIndex::new(seq);
+        let index = SamplingIndex::with_progress(seq, progress);
         let lengths = index.contour_lengths();
         DataSampler {
             contour_split: counts.contour_split(&lengths),

@@ -115,6 +115,11 @@ pub trait Observer {
     fn step(&mut self, progress: &Progress) -> ControlFlow<()>;
     /// A line for the user (e.g. "resumed from … at step 120 of 3000").
     fn note(&mut self, line: &str);
+    /// The index of exact in-plane distances being built before the first step: `done` of
+    /// `total` annotations. Nothing by default.
+    fn indexing(&mut self, done: usize, total: usize) {
+        let _ = (done, total);
+    }
     /// The check of the finished model against its input ([`crate::job::run`]): `done` of
     /// `total` times meshed. Nothing by default.
     fn checking(&mut self, done: usize, total: usize) {
@@ -249,7 +254,8 @@ pub(crate) fn fit_checked(
         domain.time_origin + domain.time_span,
         options.omega_0,
     ));
-    let mut sampler = DataSampler::new(seq, domain, counts);
+    let mut sampler =
+        DataSampler::with_progress(seq, domain, counts, &mut |d, t| observer.indexing(d, t));
     if let Some(w) = &spec.class_weights {
         sampler = sampler.with_class_weights(w).map_err(|message| SpecError {
             option: "class_weights",

@@ -234,3 +234,27 @@ fn contour_normals_point_out_of_the_exact_shapes() {
         );
     }
 }
+
+#[test]
+fn the_index_tells_its_progress_and_is_the_same_index() {
+    // A benchmark sequence: enough annotations for several progress reports.
+    let seq = slice_sequence(Shape::Chambers, &BenchmarkOptions::default()).unwrap();
+    let mut reports = Vec::new();
+    let index = SamplingIndex::with_progress(&seq, &mut |done, total| reports.push((done, total)));
+    let total = reports.last().expect("a report").1;
+    assert_eq!(reports.last(), Some(&(total, total)));
+    assert!(reports.len() > 1, "{reports:?}");
+    assert!(reports
+        .windows(2)
+        .all(|w| w[0].0 < w[1].0 && w[0].1 == w[1].1));
+    // Built in chunks, the index is the one built at once: the same samples.
+    let plain = SamplingIndex::new(&seq);
+    let draw = |index: &SamplingIndex| {
+        let mut c = ContourBatch::default();
+        let counts = vec![200; seq.classes().len()];
+        index.sample_contours(&mut SampleRng::new(5, 0), &counts, &mut c);
+        c
+    };
+    assert_eq!(draw(&index), draw(&plain));
+    assert_eq!(index.contour_lengths(), plain.contour_lengths());
+}

@@ -5,6 +5,9 @@ use rayon::prelude::*;
 use dynaslice_geometry::PolygonSdf;
 use dynaslice_sequence::{Plane, Sequence};
 
+/// How many times at most [`SamplingIndex::with_progress`] reports progress.
+const PROGRESS_STEPS: usize = 50;
+
 /// One (plane, class) annotation with its distance structure.
 #[derive(Debug)]
 pub(crate) struct AnnotationEntry {
@@ -44,6 +47,12 @@ pub struct SamplingIndex {
 impl SamplingIndex {
     /// Builds the index (cost: one grid per contoured annotation; parallel over annotations).
     pub fn new(seq: &Sequence) -> Self {
+        Self::with_progress(seq, &mut |_, _| {})
+    }
+
+    /// [`SamplingIndex::new`], calling `progress(done, total)` as the annotations' exact
+    /// distances are built (the part that takes seconds on large inputs), from this thread.
+    pub fn with_progress(seq: &Sequence, progress: &mut dyn FnMut(usize, usize)) -> Self {
         let planes: Vec<PlaneEntry> = seq
             .frames()
             .iter()
@@ -59,9 +68,14 @@ impl SamplingIndex {
             .enumerate()
             .flat_map(|(pi, p)| (0..p.plane.annotations.len()).map(move |ai| (pi, ai)))
             .collect();
-        let annotations: Vec<AnnotationEntry> = jobs
-            .par_iter()
-            .map(|&(pi, ai)| {
+        // In parallel chunks, so that progress is told from this thread between them.
+        let chunk = jobs
+            .len()
+            .div_ceil(PROGRESS_STEPS)
+            .max(4 * rayon::current_num_threads());
+        let mut annotations: Vec<AnnotationEntry> = Vec::with_capacity(jobs.len());
+        for part in jobs.chunks(chunk) {
+            annotations.par_extend(part.par_iter().map(|&(pi, ai)| {
                 let plane = &planes[pi].plane;
                 let a = &plane.annotations[ai];
                 AnnotationEntry {
@@ -69,8 +83,9 @@ impl SamplingIndex {
                     class: a.class as u32,
                     sdf: PolygonSdf::new(&a.polygons, Some((plane.roi.min, plane.roi.max))),
                 }
-            })
-            .collect();
+            }));
+            progress(annotations.len(), jobs.len());
+        }
         let mut classes: Vec<ClassEntry> = (0..seq.classes().len())
             .map(|_| ClassEntry::default())
             .collect();
