@@ -648,7 +648,7 @@ fn plane_view(
         .with_context(|| format!("the plane view on {}", input.name))?;
     Ok(Some(viewer::PlaneView {
         caption: format!(
-            "{}'s plane {index} of its first frame (the one with the most contour): the \
+            "Plane {index} of the first frame of {} (its plane with the most contour): the \
              model's labels (fill) at the time shown, with the input's contours (lines) where \
              that time is annotated.",
             input.name
