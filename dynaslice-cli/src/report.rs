@@ -78,9 +78,8 @@ pub fn run(a: Args) -> Result<()> {
         sequence,
         name: a.input.describe(),
     });
-    let html =
-        dynaslice_report::assemble_with_input(&file, &m, Some(&loss_csv), input.as_ref())?
-            .to_html();
+    let html = dynaslice_report::assemble_with_input(&file, &m, Some(&loss_csv), input.as_ref())?
+        .to_html();
     write_via(&a.output, |tmp| {
         std::fs::write(tmp, &html).with_context(|| format!("cannot write {}", tmp.display()))
     })?;

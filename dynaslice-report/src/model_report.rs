@@ -627,10 +627,7 @@ fn plane_view(
         .enumerate()
         .map(|(i, &t)| {
             let panel = annotated_at(frames, plane, t, span).unwrap_or(Panel::unannotated(t));
-            let panel = Panel {
-                time: t,
-                ..panel
-            };
+            let panel = Panel { time: t, ..panel };
             figure(&format!("plane-{i}.png"), &|path| {
                 plane_labels(
                     &model,
@@ -663,7 +660,8 @@ fn annotated_at<'a>(frames: &'a [Frame], plane: &Plane, t: f64, span: f64) -> Op
     let frame = frames
         .iter()
         .find(|f| (f.time - t).abs() <= 1e-6 * (1.0 + span.max(t.abs())))?;
-    let scale = 1.0 + (plane.roi.max[0] - plane.roi.min[0]).hypot(plane.roi.max[1] - plane.roi.min[1]);
+    let scale =
+        1.0 + (plane.roi.max[0] - plane.roi.min[0]).hypot(plane.roi.max[1] - plane.roi.min[1]);
     let near = |a: [f64; 3], b: [f64; 3], tol: f64| (0..3).all(|k| (a[k] - b[k]).abs() <= tol);
     let index = frame.planes.iter().position(|p| {
         near(p.u, plane.u, 1e-6)

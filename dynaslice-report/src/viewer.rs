@@ -170,7 +170,11 @@ fn plane_markup(scene: &Scene) -> String {
             base64::encode(png)
         );
     }
-    let _ = writeln!(h, "<figcaption>{}</figcaption></figure>", escape(&plane.caption));
+    let _ = writeln!(
+        h,
+        "<figcaption>{}</figcaption></figure>",
+        escape(&plane.caption)
+    );
     h
 }
 
