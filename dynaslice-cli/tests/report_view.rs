@@ -1,7 +1,9 @@
 //! The report's interactive 3D view in headless Chromium with software WebGL (SwiftShader): the
 //! page loads with a silent console; each class shown alone puts pixels of its colour in the
 //! canvas; the picture changes between the slider's ends and after a drag; the volumes follow
-//! the slider; the page does not scroll sideways at 1200 px. The checks run in a script added
+//! the slider; the plane view (the report given the model's input) shows another picture at the
+//! slider's other end; the page does not scroll sideways at 1200 px; without the input the
+//! report still works and says how to get the plane view. The checks run in a script added
 //! to a copy of the report (the report itself carries none). Skips with a notice where Chromium
 //! is not installed; CI installs it and sets DYNASLICE_REQUIRE_PYTHON, where that fails.
 
@@ -87,6 +89,26 @@ window.addEventListener('load', function () {
     slider.dispatchEvent(new Event('input'));
     var last = pixels(), v1 = volume.textContent;
     out.push('slider=' + differ(first, last));
+    // The plane view: the picture shown (one not hidden) at each end of the slider, its pixels
+    // read through a 2D canvas (data: URIs are same-origin).
+    var planePixels = function () {
+      var shown = root.querySelectorAll('[data-dsv="plane"] img:not([hidden])');
+      if (shown.length !== 1) return null;
+      var img = shown[0], c = document.createElement('canvas');
+      c.width = img.naturalWidth;
+      c.height = img.naturalHeight;
+      var g = c.getContext('2d');
+      g.drawImage(img, 0, 0);
+      return g.getImageData(0, 0, c.width, c.height).data;
+    };
+    var planeLast = planePixels();
+    slider.value = '0';
+    slider.dispatchEvent(new Event('input'));
+    var planeFirst = planePixels();
+    out.push('plane=' + (planeFirst && planeLast && planeFirst.length === planeLast.length ?
+      differ(planeFirst, planeLast) : 'none'));
+    slider.value = String(scene.frames.length - 1);
+    slider.dispatchEvent(new Event('input'));
     out.push('volumes=' + v0 + '/' + v1);
     var r = canvas.getBoundingClientRect();
     var pointer = function (type, target, x, y) {
@@ -106,6 +128,29 @@ window.addEventListener('load', function () {
 });
 </script>
 "#;
+
+/// A native JSON input of the two balls' model below: frames at times 0 and 2, each one axial
+/// plane through the balls' centre (world z = 2) with a square of half-side `r` mm around the
+/// ball (10, −5): the ball's world radius is 10 mm at t = 0 and 13.4 mm at t = 2.
+fn write_input(path: &Path) {
+    let frame = |t: f64, r: f64| {
+        let (x0, x1, y0, y1) = (10.0 - r, 10.0 + r, -5.0 - r, -5.0 + r);
+        format!(
+            r#"{{"time": {t}, "planes": [{{"origin": [0.0, 0.0, 2.0], "u": [1.0, 0.0, 0.0],
+            "v": [0.0, 1.0, 0.0], "roi": {{"min": [-10.0, -25.0], "max": [30.0, 15.0]}},
+            "annotations": [{{"class": 0, "polygons": [[[{x0}, {y0}], [{x1}, {y0}],
+            [{x1}, {y1}], [{x0}, {y1}]]]}}]}}]}}"#
+        )
+    };
+    let doc = format!(
+        r#"{{"format": "dynaslice-sections", "version": 1,
+          "classes": [{{"name": "ball", "label": 1}}],
+          "frames": [{}, {}]}}"#,
+        frame(0.0, 9.0),
+        frame(2.0, 12.0)
+    );
+    std::fs::write(path, doc).unwrap();
+}
 
 /// The value of `key=` in the findings.
 fn finding<'a>(findings: &'a str, key: &str) -> &'a str {
@@ -131,16 +176,41 @@ fn interactive_view_turns_plays_and_shows_every_class() {
         ),
     )
     .unwrap();
+    let report = |html: &Path, input: &[&Path]| {
+        succeeded(
+            &Command::new(env!("CARGO_BIN_EXE_dynaslice"))
+                .args(["report", s(&model)])
+                .args(input.iter().map(|p| s(p)))
+                .args(["-o", s(html)])
+                .args(["--times", "0:2:5", "--resolution", "48"])
+                .output()
+                .unwrap(),
+        );
+        std::fs::read_to_string(html).unwrap()
+    };
+    // Without the input: no plane view, and the page says how to get one.
+    let bare = report(&dir.path().join("bare.html"), &[]);
+    assert_eq!(bare.matches("<canvas").count(), 1);
+    assert!(bare.contains("No plane view"), "no note on the plane view");
+    assert!(!bare.contains("<figure class=\"dsv-plane\""));
+    let input = dir.path().join("balls.json");
+    write_input(&input);
     let html = dir.path().join("report.html");
-    succeeded(
-        &Command::new(env!("CARGO_BIN_EXE_dynaslice"))
-            .args(["report", s(&model), "-o", s(&html)])
-            .args(["--times", "0:2:5", "--resolution", "48"])
-            .output()
-            .unwrap(),
-    );
-    let text = std::fs::read_to_string(&html).unwrap();
+    let text = report(&html, &[&input]);
     assert_eq!(text.matches("<canvas").count(), 1);
+    // One plane picture per time, the plane named by the input.
+    assert_eq!(text.matches("<figure class=\"dsv-plane\"").count(), 1);
+    assert!(!text.contains("No plane view"));
+    let pictures = text.matches(" src=\"data:image/png;base64,").count()
+        - bare.matches(" src=\"data:image/png;base64,").count();
+    assert_eq!(pictures, 5);
+    assert!(text.contains("Plane 0 of the first frame of "));
+    assert!(text.contains("balls.json (its plane with the most contour)"));
+    println!(
+        "plane view: {} bytes for {pictures} pictures, {} per picture",
+        text.len() - bare.len(),
+        (text.len() - bare.len()) / pictures
+    );
     // The still picture stays, for printing and browsers without WebGL.
     assert!(text.contains("seen from the front"));
     let Some(browser) = chromium() else { return };
@@ -180,6 +250,8 @@ fn interactive_view_turns_plays_and_shows_every_class() {
     let changed = |key: &str| finding(findings, key).parse::<usize>().unwrap();
     assert!(changed("slider") > 500, "{findings}");
     assert!(changed("drag") > 500, "{findings}");
+    // The ball grows from 10 to 13.4 mm on a 40 mm plane of at most 480 px: thousands of pixels.
+    assert!(changed("plane") > 1000, "{findings}");
     let (v0, v1) = finding(findings, "volumes").split_once('/').unwrap();
     let (v0, v1): (f64, f64) = (v0.parse().unwrap(), v1.parse().unwrap());
     assert!(v1 > v0, "the ball grows: {v0} then {v1}");

@@ -12,7 +12,7 @@
 pub mod model_report;
 pub mod viewer;
 
-pub use model_report::assemble;
+pub use model_report::{assemble, assemble_with_input, Input};
 
 use std::fmt::Write as _;
 

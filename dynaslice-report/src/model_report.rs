@@ -7,12 +7,15 @@
 use crate::{viewer, Block, Cell, Document, Section, Table};
 use anyhow::{Context, Result};
 use dynaslice_core::Model;
+use dynaslice_figures::display::Display;
+use dynaslice_figures::picture::{longest_plane, match_classes, plane_labels, Panel};
 use dynaslice_figures::plot::{class_chart, line_chart, Series};
 use dynaslice_figures::render3d::{self, RenderOptions, SurfacePanel};
 use dynaslice_mesh::Mesh;
 use dynaslice_metrics::measurement::Measurement;
 use dynaslice_metrics::motion::{round, Units, RIGID_WITHIN};
 use dynaslice_model::ModelFile;
+use dynaslice_sequence::{Frame, Plane, Sequence};
 use std::path::Path;
 
 /// Draws a figure (a PNG, by the closure given the path to write) and returns its bytes.
@@ -26,6 +29,27 @@ const PICTURE_TIMES: usize = 4;
 /// writes beside the model; a note says so where it is `None` or absent). An error where the
 /// loss log is there but not a loss log, or a figure cannot be drawn.
 pub fn assemble(file: &ModelFile, m: &Measurement, loss_log: Option<&Path>) -> Result<Document> {
+    assemble_with_input(file, m, loss_log, None)
+}
+
+/// The input a report's plane view is drawn on: the cross-sections the model was trained on,
+/// read as it was trained.
+pub struct Input<'a> {
+    /// The cross-sections.
+    pub sequence: &'a Sequence,
+    /// The input as the page names it (e.g. its files).
+    pub name: String,
+}
+
+/// [`assemble`] with the plane view of the 3D view drawn on `input` (`None`: no plane view, and
+/// the page says how to get one): one input plane, the first frame's with the most contour, with
+/// the model's labels at each measured time and the contours where that time is annotated.
+pub fn assemble_with_input(
+    file: &ModelFile,
+    m: &Measurement,
+    loss_log: Option<&Path>,
+    input: Option<&Input>,
+) -> Result<Document> {
     // Figures are drawn by dynaslice-figures into files; they are read back and inlined.
     let dir = tempfile::tempdir().context("cannot create a temporary folder for the figures")?;
     let figure = |name: &str, draw: &dyn Fn(&Path) -> Result<()>| -> Result<Vec<u8>> {
@@ -45,7 +69,7 @@ pub fn assemble(file: &ModelFile, m: &Measurement, loss_log: Option<&Path>) -> R
         } else {
             figures_section(m, &figure)?
         },
-        surfaces_section(file, m, &figure)?,
+        surfaces_section(file, m, input, &figure)?,
     ];
     Ok(Document {
         title: format!("DynaSlice report: {}", file_name(path)),
@@ -446,7 +470,12 @@ fn split_csv(line: &str) -> Vec<String> {
     fields
 }
 
-fn surfaces_section(file: &ModelFile, m: &Measurement, figure: &Figure) -> Result<Section> {
+fn surfaces_section(
+    file: &ModelFile,
+    m: &Measurement,
+    input: Option<&Input>,
+    figure: &Figure,
+) -> Result<Section> {
     let resolution = m.resolution;
     let model = file.model();
     let all = &m.motion.times;
@@ -477,7 +506,7 @@ fn surfaces_section(file: &ModelFile, m: &Measurement, figure: &Figure) -> Resul
     Ok(Section {
         heading: "Surfaces".into(),
         blocks: vec![
-            interactive_view(&model, m, &channels)?,
+            interactive_view(file, m, &channels, input, figure)?,
             Block::Image {
                 png,
                 caption: format!(
@@ -507,7 +536,14 @@ const VIEW_RESOLUTION: u32 = 64;
 
 /// The interactive 3D view (dynaslice_report::viewer): every class's surface and volume at
 /// every measured time.
-fn interactive_view(model: &Model, m: &Measurement, channels: &[usize]) -> Result<Block> {
+fn interactive_view(
+    file: &ModelFile,
+    m: &Measurement,
+    channels: &[usize],
+    input: Option<&Input>,
+    figure: &Figure,
+) -> Result<Block> {
+    let model = &file.model();
     let options = dynaslice_mesh::Options {
         resolution: m.resolution.min(VIEW_RESOLUTION),
         ..dynaslice_mesh::Options::default()
@@ -545,8 +581,94 @@ fn interactive_view(model: &Model, m: &Measurement, channels: &[usize]) -> Resul
         snapshots,
         time_label: format!("{}:", m.time_axis()),
         volume_unit: m.units.volume().to_string(),
+        plane: match input {
+            Some(input) => plane_view(file, m, input, figure)?,
+            None => None,
+        },
     };
-    Ok(Block::Html(viewer::render(&scene)))
+    let mut html = viewer::render(&scene);
+    if input.is_none() {
+        html.push_str(
+            "<p>No plane view: the report was made without the model's input. Give it \
+             (<code>dynaslice report MODEL INPUT… -o REPORT.html</code>, read as the model was \
+             trained) to see an input plane with its contours and the predicted labels follow \
+             the slider.</p>\n",
+        );
+    }
+    Ok(Block::Html(html))
+}
+
+/// The plane view: the first frame's plane with the most contour ([`longest_plane`]), with the
+/// model's labels (Eq. 11) at every measured time, and the contours of that plane where a
+/// frame of the input is at that time (`None`: the input has no plane).
+fn plane_view(
+    file: &ModelFile,
+    m: &Measurement,
+    input: &Input,
+    figure: &Figure,
+) -> Result<Option<viewer::PlaneView>> {
+    let frames = input.sequence.frames();
+    let Some((first, index)) = frames
+        .first()
+        .and_then(|f| longest_plane(f).map(|i| (f, i)))
+    else {
+        return Ok(None);
+    };
+    let plane = &first.planes[index];
+    let model = file.model();
+    let classes = file.classes();
+    let drawn_as = match_classes(&classes, input.sequence.classes());
+    let unit = file.units().length();
+    let span = frames.last().map_or(0.0, |l| l.time - first.time).abs();
+    let pngs = m
+        .motion
+        .times
+        .iter()
+        .enumerate()
+        .map(|(i, &t)| {
+            let panel = annotated_at(frames, plane, t, span).unwrap_or(Panel::unannotated(t));
+            let panel = Panel { time: t, ..panel };
+            figure(&format!("plane-{i}.png"), &|path| {
+                plane_labels(
+                    &model,
+                    &classes,
+                    &drawn_as,
+                    plane,
+                    std::slice::from_ref(&panel),
+                    unit,
+                    Display::default(),
+                    path,
+                )
+            })
+        })
+        .collect::<Result<Vec<_>>>()
+        .with_context(|| format!("the plane view on {}", input.name))?;
+    Ok(Some(viewer::PlaneView {
+        caption: format!(
+            "Plane {index} of the first frame of {} (its plane with the most contour): the \
+             model's labels (fill) at the time shown, with the input's contours (lines) where \
+             that time is annotated.",
+            input.name
+        ),
+        pngs,
+    }))
+}
+
+/// The panel of the frame at time `t` (within a small part of the input's time `span`) on the
+/// plane where `plane` lies, if one is.
+fn annotated_at<'a>(frames: &'a [Frame], plane: &Plane, t: f64, span: f64) -> Option<Panel<'a>> {
+    let frame = frames
+        .iter()
+        .find(|f| (f.time - t).abs() <= 1e-6 * (1.0 + span.max(t.abs())))?;
+    let scale =
+        1.0 + (plane.roi.max[0] - plane.roi.min[0]).hypot(plane.roi.max[1] - plane.roi.min[1]);
+    let near = |a: [f64; 3], b: [f64; 3], tol: f64| (0..3).all(|k| (a[k] - b[k]).abs() <= tol);
+    let index = frame.planes.iter().position(|p| {
+        near(p.u, plane.u, 1e-6)
+            && near(p.v, plane.v, 1e-6)
+            && near(p.origin, plane.origin, 1e-6 * scale)
+    })?;
+    Some(Panel::annotated(frame, index))
 }
 
 #[cfg(test)]

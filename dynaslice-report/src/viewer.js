@@ -171,6 +171,8 @@
   // Time: the slider, the play button, and the volumes of the time shown.
   var slider = part('time'), label = part('time-label'), play = part('play');
   var volumes = root.querySelectorAll('[data-dsv="volume"]');
+  // The plane view, where the report has one: one picture per time, the time's shown.
+  var planes = root.querySelectorAll('[data-dsv="plane"] img');
   function setFrame(f) {
     frame = f;
     slider.value = String(f);
@@ -180,6 +182,7 @@
       var v = fr.volumes[k];
       volumes[k].textContent = v === null ? '\u2013' : String(v);
     }
+    for (var p = 0; p < planes.length; p++) planes[p].hidden = p !== f;
     draw();
   }
   slider.addEventListener('input', function () { setFrame(Number(slider.value)); });

@@ -9,6 +9,11 @@
 //! 1, no library, nothing fetched). Meshes are decimated by vertex clustering until the
 //! geometry fits a byte budget, so a report with many times stays small enough to mail. A
 //! browser without WebGL shows a note instead; the report's still pictures stay for printing.
+//!
+//! With a [`PlaneView`], one picture per time of an input plane (the model's labels, and the
+//! contours where that time is annotated) sits below the canvas; the slider and play show the
+//! time's picture. They are `<img>` elements with PNG data URIs, all decoded with the page, so
+//! a change of time swaps them at once.
 
 use super::escape;
 use rustc_hash::FxHashMap;
@@ -26,6 +31,7 @@ cursor:grab;touch-action:none}\
 .dsv-side{flex:0 1 300px;min-width:0}.dsv-side table{margin-top:.5em}\
 .dsv-controls{display:flex;gap:.5em;align-items:center;flex-wrap:wrap}\
 .dsv-controls input{flex:1 1 120px;min-width:0}.dsv-help{color:#555;font-size:.9em}\
+.dsv-plane{flex:1 1 100%;margin:0}.dsv-plane img{max-width:100%;height:auto;border:1px solid #eee}\
 @media print{.dsv{display:none}}";
 
 /// Bytes of packed geometry (before base64, which adds a third) [`render`] decimates to: with
@@ -61,6 +67,15 @@ pub struct Snapshot {
     pub volumes: Vec<Option<f64>>,
 }
 
+/// Pictures of one input plane that follow the slider: one per time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlaneView {
+    /// What the pictures show (under them).
+    pub caption: String,
+    /// One PNG per [`Scene::snapshots`] time, in order.
+    pub pngs: Vec<Vec<u8>>,
+}
+
 /// What the view shows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
@@ -72,6 +87,8 @@ pub struct Scene {
     pub time_label: String,
     /// The volumes' unit (e.g. `mL`).
     pub volume_unit: String,
+    /// The plane view that follows the slider (`None`: none); one picture per snapshot.
+    pub plane: Option<PlaneView>,
 }
 
 /// The view of `scene` as an HTML fragment (see the module docs), its geometry decimated to
@@ -117,15 +134,46 @@ pub fn render_within(scene: &Scene, budget: usize) -> String {
         h,
         "</tbody>\n</table>\n<p class=\"dsv-help\">Drag to turn, shift-drag or right-drag to \
          pan, the wheel zooms, a double click goes back to the first view. Surfaces decimated \
-         to {} triangles over the {} times.</p>\n</div>\n</div>\n<p data-dsv=\"nogl\" hidden>\
+         to {} triangles over the {} times.</p>\n</div>\n{}</div>\n<p data-dsv=\"nogl\" hidden>\
          This browser shows no WebGL: the still pictures below show the surfaces.</p>\n\
          <script type=\"application/json\" data-dsv=\"scene\">{}</script>\n\
          <script type=\"application/octet-stream\" data-dsv=\"geometry\">{}</script>\n\
          <script>{SCRIPT}</script>\n</div>\n",
         packed.triangles,
         scene.snapshots.len(),
+        plane_markup(scene),
         packed.json,
         base64::encode(&packed.bytes)
+    );
+    h
+}
+
+/// The plane view's markup: a figure with one `<img>` per time, all but the first hidden (the
+/// script shows the slider's); empty without a plane view or with a picture missing for a time.
+fn plane_markup(scene: &Scene) -> String {
+    let Some(plane) = scene
+        .plane
+        .as_ref()
+        .filter(|p| p.pngs.len() == scene.snapshots.len())
+    else {
+        return String::new();
+    };
+    let mut h = String::from("<figure class=\"dsv-plane\" data-dsv=\"plane\">");
+    for (i, (png, snapshot)) in plane.pngs.iter().zip(&scene.snapshots).enumerate() {
+        let _ = write!(
+            h,
+            "<img alt=\"{}, {} {}\"{} src=\"data:image/png;base64,{}\">",
+            escape(&plane.caption),
+            escape(&scene.time_label),
+            snapshot.time,
+            if i == 0 { "" } else { " hidden" },
+            base64::encode(png)
+        );
+    }
+    let _ = writeln!(
+        h,
+        "<figcaption>{}</figcaption></figure>",
+        escape(&plane.caption)
     );
     h
 }
@@ -412,6 +460,7 @@ mod tests {
                 .collect(),
             time_label: "time".into(),
             volume_unit: "mL".into(),
+            plane: None,
         }
     }
 
@@ -507,6 +556,32 @@ mod tests {
             .split(',')
             .map(|v| v.parse().unwrap())
             .collect()
+    }
+
+    #[test]
+    fn a_plane_view_has_one_picture_per_time_and_shows_the_first() {
+        let mut s = scene(6, 3);
+        let html = render(&s);
+        assert!(!html.contains("<figure class=\"dsv-plane\""));
+        let pngs: Vec<Vec<u8>> = (0..3u8).map(|i| vec![137, 80, 78, 71, i]).collect();
+        s.plane = Some(PlaneView {
+            caption: "axial <z> = 0".into(),
+            pngs: pngs.clone(),
+        });
+        let html = render(&s);
+        assert_eq!(html.matches("<img ").count(), 3);
+        assert_eq!(html.matches(" hidden src=").count(), 2);
+        assert!(html.contains("<figcaption>axial &lt;z&gt; = 0</figcaption>"));
+        for (i, png) in pngs.iter().enumerate() {
+            let uri = format!("data:image/png;base64,{}", base64::encode(png));
+            let at = html.find(&uri).unwrap();
+            // In order of time, the first shown.
+            assert_eq!(html[..at].matches("<img ").count(), i + 1);
+        }
+        assert!(html.contains("alt=\"axial &lt;z&gt; = 0, time 0.5\" hidden"));
+        // A picture missing for a time: no plane view rather than one that skips.
+        s.plane.as_mut().unwrap().pngs.pop();
+        assert!(!render(&s).contains("<img "));
     }
 
     #[test]
