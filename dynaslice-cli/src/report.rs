@@ -7,6 +7,7 @@ use super::console::errln;
 use super::input::{self, InputArgs};
 use super::measure;
 use super::options::{count, time_series, MAX_MESH_RESOLUTION, MAX_TIMES};
+use super::progress::Progress;
 use super::times::times_option;
 use anyhow::{Context, Result};
 use dynaslice_data::TimeSeries;
@@ -78,8 +79,12 @@ pub fn run(a: Args) -> Result<()> {
         sequence,
         name: a.input.describe(),
     });
+    // Drawing the charts, surfaces and plane pictures takes tens of seconds: a line every 5 s.
+    let drawing = Progress::new("drawing the report's charts, surfaces and pictures", 1);
     let html = dynaslice_report::assemble_with_input(&file, &m, Some(&loss_csv), input.as_ref())?
         .to_html();
+    drawing.inc();
+    drawing.finish();
     write_via(&a.output, |tmp| {
         std::fs::write(tmp, &html).with_context(|| format!("cannot write {}", tmp.display()))
     })?;
