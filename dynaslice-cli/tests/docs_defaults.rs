@@ -22,7 +22,7 @@ fn leading_numbers(text: &str) -> Vec<f64> {
     let word: String = text
         .trim_start()
         .chars()
-        .take_while(|c| !c.is_whitespace() && !";)".contains(*c))
+        .take_while(|c| !c.is_whitespace() && !";)]".contains(*c))
         .collect();
     let word = word.trim_end_matches([',', '.']);
     if let Some(exp) = word.strip_prefix("10") {
@@ -48,9 +48,15 @@ fn leading_numbers(text: &str) -> Vec<f64> {
 /// The first number after the word "default" in `text` (any case; `default 128`,
 /// `default: 3000`, `[default: 0.1]`, `default: the … at 21 times`).
 fn stated_default(text: &str) -> Option<Vec<f64>> {
-    let lower = text.to_lowercase();
-    let at = lower.find("default")?;
-    let rest = &text[at + "default".len()..];
+    // clap's own "[default: X]" where the help shows one (the training options' table puts
+    // it there), else the first "default" of the prose.
+    let rest = match text.find("[default:") {
+        Some(at) => &text[at + "[default:".len()..],
+        None => {
+            let at = text.to_lowercase().find("default")?;
+            &text[at + "default".len()..]
+        }
+    };
     let start = rest.find(|c: char| c.is_ascii_digit())?;
     let numbers = leading_numbers(&rest[start..]);
     (!numbers.is_empty()).then_some(numbers)
