@@ -3,7 +3,7 @@
 
 use super::progress::Progress;
 use super::times::note;
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
 use dynaslice_data::frame_range::FrameRange;
 use dynaslice_data::input_spec::InputSpec;
@@ -12,6 +12,7 @@ use dynaslice_data::nifti::HeaderSpacing;
 use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::Sequence;
 use dynaslice_model::ModelFile;
+use dynaslice_train::job::input_as_trained;
 use std::path::PathBuf;
 
 use crate::options::{count, positive_f64};
@@ -106,37 +107,11 @@ impl InputArgs {
     }
 
     /// [`InputArgs::spec`] with every option not given taken from how `file`'s model read its
-    /// input (its run record's `frames` and `reading`), so that `info MODEL INPUT` reads the
-    /// input as `train` did (`--labels`, `--planes`, …) without the flags given again; a note
-    /// names what was taken.
+    /// input ([`input_as_trained`]); its note, where anything was taken, on standard error.
     pub fn spec_as_trained(&self, file: &ModelFile) -> Result<InputSpec> {
-        let record = file.record();
-        let mut spec = self.spec();
-        let mut taken = Vec::new();
-        if spec.frames.is_none() {
-            if let Some(frames) = &record.frames {
-                spec.frames = Some(frames.parse().map_err(|e| {
-                    anyhow!("{}: recorded frames {frames:?}: {e}", file.path().display())
-                })?);
-                taken.push(format!("frames={frames}"));
-            }
-        }
-        if let Some(reading) = &record.reading {
-            let before = spec.clone();
-            spec = spec
-                .with_reading(reading)
-                .map_err(|e| anyhow!("{}: {e}", file.path().display()))?;
-            if spec != before {
-                taken.push(reading.clone());
-            }
-        }
-        if !taken.is_empty() {
-            note(&format!(
-                "reading {} as {} was trained ({}); give the options to read it otherwise",
-                spec.describe(),
-                file.path().display(),
-                taken.join("; ")
-            ));
+        let (spec, taken) = input_as_trained(self.spec(), file)?;
+        if let Some(taken) = taken {
+            note(&taken);
         }
         Ok(spec)
     }

@@ -10,6 +10,7 @@
 #![warn(missing_docs)]
 
 pub mod batch;
+pub mod figures;
 pub mod model;
 pub mod train;
 
@@ -92,7 +93,7 @@ fn _bench_rust_batch<'py>(
             "n must be in 1..=2^27 and repeats at least 1",
         ));
     }
-    let m = model.model_ref();
+    let m = &model.model();
     let (lo, hi) = m.domain().bounds();
     // SplitMix64: a fixed, dependency-free spread of points (the values do not matter, only
     // that both sides evaluate the same ones).
@@ -141,6 +142,9 @@ fn _dynaslice(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<model::PyModel>()?;
     m.add_function(wrap_pyfunction!(train::train, m)?)?;
+    m.add_function(wrap_pyfunction!(figures::description, m)?)?;
+    m.add_function(wrap_pyfunction!(figures::measure_json, m)?)?;
+    m.add_function(wrap_pyfunction!(figures::report, m)?)?;
     m.add_function(wrap_pyfunction!(kernel_name, m)?)?;
     m.add_function(wrap_pyfunction!(random_model, m)?)?;
     m.add_function(wrap_pyfunction!(_bench_rust_batch, m)?)?;

@@ -2,10 +2,10 @@
 
 use crate::batch::{self, Answers, PointsArg, Query, TimesArg};
 use crate::{core_error, detach_result, pool, DynasliceError};
-use dynaslice_core::{Model, ModelBytes, OwnedModel};
+use dynaslice_core::{Model, ModelBytes};
 use dynaslice_data::nifti::read_volume;
 use dynaslice_mesh::{self as mesh, Options};
-use dynaslice_model::{recorded_class_colors, resolve_classes};
+use dynaslice_model::{recorded_class_colors, resolve_classes, ModelFile};
 use dynaslice_sequence::palette;
 use dynaslice_volume::{label_indices, source_labels, write_model_labels, VoxelGrid};
 use numpy::ndarray::{Array1, Array2, Array3};
@@ -29,24 +29,26 @@ type Rgb = (u8, u8, u8);
 /// GIL and run on all cores (the `RAYON_NUM_THREADS` environment variable caps them).
 #[pyclass(name = "Model", module = "dynaslice._dynaslice", frozen)]
 pub struct PyModel {
-    /// Validated once, at load.
-    owned: OwnedModel,
+    /// Validated once, at load, with its run record: the command line's `ModelFile`.
+    file: ModelFile,
 }
 
 impl PyModel {
     /// Wraps validated bytes.
     pub fn from_model_bytes(bytes: ModelBytes, source: &str) -> PyResult<PyModel> {
-        let owned = OwnedModel::new(bytes)
-            .map_err(|e| DynasliceError::new_err(format!("{source}: {e}")))?;
-        Ok(PyModel { owned })
+        let file = ModelFile::from_bytes(bytes, Path::new(source))
+            .map_err(|e| DynasliceError::new_err(format!("{e:#}")))?;
+        Ok(PyModel { file })
     }
 
-    pub(crate) fn model_ref(&self) -> &Model<'_> {
-        self.model()
+    /// The model (a view validated at load: free to call).
+    pub(crate) fn model(&self) -> Model<'_> {
+        self.file.model()
     }
 
-    fn model(&self) -> &Model<'_> {
-        self.owned.model()
+    /// The model file, with its run record.
+    pub(crate) fn file(&self) -> &ModelFile {
+        &self.file
     }
 
     /// Runs a batch query with the GIL released.
@@ -61,7 +63,7 @@ impl PyModel {
         let view = points.view();
         let n = view.len();
         let mut times = TimesArg::extract(t, n)?;
-        let model = self.model();
+        let model = &self.model();
         let at = |i: usize| {
             if n > 1 {
                 format!(" (point {i})")
@@ -93,7 +95,7 @@ impl PyModel {
 
     /// An error unless every one of `times` is in the model's range.
     fn check_times(&self, times: &[f64]) -> PyResult<()> {
-        let model = self.model();
+        let model = &self.model();
         match times
             .iter()
             .find(|&&t| !model.domain().contains_time(t as f32))
@@ -107,7 +109,7 @@ impl PyModel {
     /// clamped to 0, so f does not depend on t; dynaslice-model's `ModelFile::is_static`),
     /// the start of its nominal range; `None` for a moving model.
     fn static_time(&self) -> Option<f32> {
-        let model = self.model();
+        let model = &self.model();
         (model.omega_t_max() == 0.0).then(|| model.domain().time_range().0)
     }
 
@@ -158,7 +160,7 @@ impl PyModel {
 
     /// The model file's bytes.
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
-        PyBytes::new(py, self.owned.bytes().as_bytes())
+        PyBytes::new(py, self.file.bytes().as_bytes())
     }
 
     /// K, the number of classes.
@@ -172,7 +174,7 @@ impl PyModel {
     /// malformed record warns (UserWarning) and counts as none.
     #[getter]
     fn class_records(&self, py: Python<'_>) -> PyResult<Vec<ClassRecord>> {
-        let model = self.model();
+        let model = &self.model();
         let recorded = match recorded_class_colors(model) {
             Ok(colors) => colors,
             Err(e) => {
@@ -359,7 +361,7 @@ impl PyModel {
             Bound<'py, PyArray1<f32>>,
         )>,
     > {
-        let model = self.model();
+        let model = &self.model();
         let channels = resolve_classes(model, &classes).map_err(PyValueError::new_err)?;
         let t = self.model_times(&[f64::from(t)], "meshing")?[0] as f32;
         let options = Options::of(resolution, dense, safety, non_overlapping, newton_steps);
@@ -468,7 +470,7 @@ impl PyModel {
     ) -> PyResult<(Bound<'py, PyArray1<i32>>, [usize; 3], usize)> {
         let mut grid = grid;
         grid.times = self.model_times(&grid.times, "one frame")?;
-        let model = self.model();
+        let model = &self.model();
         let frames = grid.times.len();
         let values = detach_result(py, || {
             anyhow::ensure!(frames > 0, "no frame times");

@@ -1,8 +1,10 @@
 """One way into training: the same input and options through the command line
 (`dynaslice train`) and through `dynaslice.train` give byte-identical model files and loss
 logs, and the same bad option gives the same words before any work. Both front ends map onto
-one training specification (dynaslice_train::spec::TrainSpec and fit)."""
+one training specification (dynaslice_train::spec::TrainSpec and fit). One way out: `info`,
+`measure` and `report` give what Model.describe, Model.measure and Model.report give."""
 
+import json
 import os
 import subprocess
 
@@ -104,3 +106,47 @@ def test_list_keywords_take_the_command_lines_text(tmp_path, monkeypatch):
         dynaslice.train("s.json", "bad.dsm", progress=False, labels="1,x")
     assert str(e.value).startswith('labels "1,x": "x"'), str(e.value)
     assert not (tmp_path / "bad.dsm").exists()
+
+
+def test_info_measure_and_report_are_the_same_from_both_front_ends(tmp_path, monkeypatch):
+    """`info`, `measure --json` and `report` of one model give the same lines, figures and
+    page as Model.describe, Model.measure and Model.report: one library call behind each."""
+    exe = cli()
+    monkeypatch.chdir(tmp_path)
+
+    def run(*args):
+        return subprocess.run([str(exe)] + list(args), check=True, capture_output=True,
+                              text=True).stdout
+
+    # `info` meshes every class at each of up to 5 times for its extent check (minutes in a
+    # debug build): a static model's one time keeps it short.
+    write_sphere_sections(tmp_path / "one.json", frames=1)
+    static = dynaslice.train("one.json", "static.dsm", progress=False, steps=30, widths=[24, 24])
+    info = run("info", "static.dsm").splitlines()
+    lines = static.describe()
+    assert len(lines) > 5 and info[0] == "model        static.dsm", info
+    assert info[1:1 + len(lines)] == lines
+    assert info[1 + len(lines)].startswith("extents"), info
+
+    write_sphere_sections(tmp_path / "s.json", frames=3)
+    model = dynaslice.train("s.json", "m.dsm", progress=False, steps=30, widths=[24, 24], seed=2)
+    t0, t1 = model.time_range
+    times = "%r:%r:2" % (t0, t1)
+    figures = json.loads(run("measure", "m.dsm", "--json", "--times", times, "--resolution", "16"))
+    assert len(figures["classes"]) == model.num_classes, figures
+    assert model.measure(times, resolution=16) == figures
+    # The same times as a list: the same figures.
+    listed = model.measure([t0, t1], resolution=16)
+    assert listed["classes"] == figures["classes"]
+
+    run("report", "m.dsm", "s.json", "-o", "cli.html", "--times", times, "--resolution", "16")
+    model.report("py.html", ["s.json"], times=times, resolution=16)
+    cli_page = (tmp_path / "cli.html").read_bytes()
+    assert len(cli_page) > 10000 and (tmp_path / "py.html").read_bytes() == cli_page
+    # An existing page is kept unless force=True, in the command's words.
+    with pytest.raises(dynaslice.DynasliceError, match="force=True"):
+        model.report("py.html", times=times, resolution=16)
+    model.report("py.html", times=times, resolution=16, force=True)
+    assert (tmp_path / "py.html").read_bytes() != cli_page  # no plane view without the input
+    with pytest.raises(ValueError, match="resolution 1: out of range"):
+        model.measure(resolution=1)

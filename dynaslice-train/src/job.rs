@@ -17,6 +17,7 @@ use anyhow::{anyhow, Result};
 use dynaslice_data::input_spec::InputSpec;
 use dynaslice_figures::plot::loss_curve;
 use dynaslice_metrics::extent::{self, Warning};
+use dynaslice_model::ModelFile;
 use dynaslice_output::{Kind, Plan};
 use std::path::Path;
 
@@ -165,6 +166,45 @@ pub fn set(
             .map_err(|e| SetError::Invalid(format!("{key} {text:?}: {e}"))),
         None => Err(SetError::Unknown),
     }
+}
+
+/// `spec` with every option it leaves unset taken from how `file`'s model read its input (its
+/// run record's `frames` and `reading`), so that a command given the training input again (the
+/// extent check, the report's plane view, a picture) reads it as training did (`--labels`,
+/// `--planes`, …) without the options given again; with a note naming what was taken, where
+/// anything was, for the front end to show.
+pub fn input_as_trained(
+    mut spec: InputSpec,
+    file: &ModelFile,
+) -> Result<(InputSpec, Option<String>)> {
+    let record = file.record();
+    let mut taken = Vec::new();
+    if spec.frames.is_none() {
+        if let Some(frames) = &record.frames {
+            spec.frames = Some(frames.parse().map_err(|e| {
+                anyhow!("{}: recorded frames {frames:?}: {e}", file.path().display())
+            })?);
+            taken.push(format!("frames={frames}"));
+        }
+    }
+    if let Some(reading) = &record.reading {
+        let before = spec.clone();
+        spec = spec
+            .with_reading(reading)
+            .map_err(|e| anyhow!("{}: {e}", file.path().display()))?;
+        if spec != before {
+            taken.push(reading.clone());
+        }
+    }
+    let note = (!taken.is_empty()).then(|| {
+        format!(
+            "reading {} as {} was trained ({}); give the options to read it otherwise",
+            spec.describe(),
+            file.path().display(),
+            taken.join("; ")
+        )
+    });
+    Ok((spec, note))
 }
 
 /// Runs `job`, telling `observer` of its progress, notes and warnings (see the module's doc).

@@ -19,6 +19,7 @@ See docs/python.md for the whole API.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import signal
 import sys
@@ -340,6 +341,40 @@ class Model:
             four_d = frames > 1 or len(shape) == 4 or (times is not None and np.ndim(times) > 0)
         volume = flat.reshape(tuple(dims) + (frames,), order="F")
         return volume if four_d else volume[..., 0]
+
+    # -- what `dynaslice info`, `measure` and `report` give -------------------------------
+    def describe(self) -> List[str]:
+        """The lines ``dynaslice info`` prints of the model: size, layer widths, cost per
+        point, world bounds, time range (or that it is static), classes and metadata."""
+        return list(_dynaslice.description(self._m))
+
+    def measure(self, times: Union[None, str, float, Sequence[float]] = None,
+                resolution: int = 128) -> dict:
+        """The figures of ``dynaslice measure --json``, as a dict: per class and time the
+        volume (mL for a model of millimetres), centroid and box in the input's patient frame;
+        per class the smallest and largest volume, the volume change and the centroid's
+        motion. ``times``: a list of times or the command's text (``"0,0.5,1"`` or ``"A:B:N"``,
+        N times from A to B inclusive); None: 21 times over the model's range (its one time
+        for a static model). ``resolution``: meshing cells along the domain's longest axis."""
+        return json.loads(_dynaslice.measure_json(self._m, _time_text(times), resolution))
+
+    def report(self, output: PathLike, inputs: Sequence[PathLike] = (), *,
+               times: Union[None, str, float, Sequence[float]] = None, resolution: int = 128,
+               force: bool = False) -> None:
+        """Writes the page ``dynaslice report`` writes (one self-contained HTML file): the
+        input, the training (with the loss curve logged beside the model file), the classes,
+        the measured figures (:meth:`measure` at ``times`` and ``resolution``) and the
+        interactive 3D view; with the training ``inputs`` (read as the model was trained on
+        them) its plane view. An existing page is replaced only with ``force=True``."""
+        _dynaslice.report(self._m, os.fspath(output), [os.fspath(p) for p in inputs],
+                          _time_text(times), resolution, force)
+
+
+def _time_text(times: Union[None, str, float, Sequence[float]]) -> Optional[str]:
+    """Times as the command line's ``--times`` text: a list ``t1,t2,…`` or ``A:B:N`` as given."""
+    if times is None or isinstance(times, str):
+        return times
+    return ",".join(repr(float(t)) for t in np.atleast_1d(times))
 
 
 def random_model(widths: Sequence[int], num_classes: int, seed: int = 0) -> Model:
