@@ -10,6 +10,7 @@
 //! the rows of `dynaslice_train::flags` (name, help, default, limit), as ripgrep keeps one
 //! `Flag` per option.
 
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Arg, ArgAction, ArgMatches, Command};
 use dynaslice_data::TimeSeries;
 use dynaslice_train::flags::{Flag, Value, Values};
@@ -153,6 +154,25 @@ pub fn negative_numbers(cmd: clap::Command) -> clap::Command {
         }
     })
     .mut_subcommands(negative_numbers)
+}
+
+/// One of a library enum's values (`all`), by the name and help the library gives each, so the
+/// command line keeps no copy of the enum: `value_parser = choice(&Side::ALL, Side::name,
+/// Side::help)`. `--help` lists the names with their help, as for a `ValueEnum`.
+pub fn choice<T: Copy + Send + Sync + 'static>(
+    all: &'static [T],
+    name: fn(T) -> &'static str,
+    help: fn(T) -> &'static str,
+) -> impl TypedValueParser<Value = T> {
+    let values = all
+        .iter()
+        .map(move |&v| PossibleValue::new(name(v)).help(help(v)));
+    PossibleValuesParser::new(values).try_map(move |text| {
+        all.iter()
+            .copied()
+            .find(|&v| name(v) == text)
+            .ok_or_else(|| format!("{text}: not one of the possible values"))
+    })
 }
 
 /// A [`TimeSeries`] (a list `0,0.5,1` or `A:B:N`) of at most `max` times.

@@ -21,6 +21,25 @@ pub enum Display {
 }
 
 impl Display {
+    /// Both conventions, in the order a help text lists them.
+    pub const ALL: [Display; 2] = [Display::Radiological, Display::Neurological];
+
+    /// The convention's name in options: `radiological` or `neurological`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Display::Radiological => "radiological",
+            Display::Neurological => "neurological",
+        }
+    }
+
+    /// Where the patient's left is, for help texts.
+    pub fn help(self) -> &'static str {
+        match self {
+            Display::Radiological => "The patient's left on the right of the picture",
+            Display::Neurological => "The patient's left on the left of the picture",
+        }
+    }
+
     /// The words a legend uses for the convention.
     pub fn describe(self) -> &'static str {
         match self {

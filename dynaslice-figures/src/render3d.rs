@@ -69,6 +69,50 @@ pub struct Camera {
     pub perspective: bool,
 }
 
+impl Side {
+    /// Every side, in the order a help text lists them.
+    pub const ALL: [Side; 7] = [
+        Side::Oblique,
+        Side::Anterior,
+        Side::Posterior,
+        Side::Left,
+        Side::Right,
+        Side::Superior,
+        Side::Inferior,
+    ];
+
+    /// The side's name in options and file names: `oblique`, `anterior`, …
+    pub fn name(self) -> &'static str {
+        match self {
+            Side::Oblique => "oblique",
+            Side::Anterior => "anterior",
+            Side::Posterior => "posterior",
+            Side::Left => "left",
+            Side::Right => "right",
+            Side::Superior => "superior",
+            Side::Inferior => "inferior",
+        }
+    }
+
+    /// Where the side looks from and what is up, for help texts.
+    pub fn help(self) -> &'static str {
+        match self {
+            Side::Oblique => {
+                "From the front, a little to the patient's right and above; superior up"
+            }
+            Side::Anterior => "From the front (+A); superior up, the patient's right on the left",
+            Side::Posterior => "From behind (−A); superior up",
+            Side::Left => "From the patient's left (−R); superior up",
+            Side::Right => "From the patient's right (+R); superior up",
+            Side::Superior => "From above (+S); anterior up, the patient's right on the right",
+            Side::Inferior => {
+                "From below (−S), as axial images are shown; anterior up, the patient's right \
+                 on the left"
+            }
+        }
+    }
+}
+
 impl Camera {
     /// The default view: from the front (anterior), a little to the patient's right and above,
     /// superior up, orthographic — anatomy as one faces a patient, with depth cues from the
@@ -83,21 +127,19 @@ impl Camera {
 /// The sides a 3D picture is seen from, in the model's RAS world ([`Camera::from_side`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Side {
-    /// From the front, a little to the patient's right and above; superior up
-    /// ([`Camera::ANTERIOR_OBLIQUE`]).
+    /// See [`Side::help`] for each side ([`Camera::ANTERIOR_OBLIQUE`]).
     Oblique,
-    /// From the front (+A); superior up, the patient's right on the left.
+    /// From the front.
     Anterior,
-    /// From behind (−A); superior up.
+    /// From behind.
     Posterior,
-    /// From the patient's left (−R); superior up.
+    /// From the patient's left.
     Left,
-    /// From the patient's right (+R); superior up.
+    /// From the patient's right.
     Right,
-    /// From above (+S); anterior up, the patient's right on the right.
+    /// From above.
     Superior,
-    /// From below (−S), as axial images are shown; anterior up, the patient's right on the
-    /// left.
+    /// From below.
     Inferior,
 }
 

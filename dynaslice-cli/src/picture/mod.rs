@@ -5,11 +5,11 @@ mod plane;
 mod three_d;
 
 use super::input::InputArgs;
-use super::options::{count, time_series, MAX_MESH_RESOLUTION};
+use super::options::{choice, count, time_series, MAX_MESH_RESOLUTION};
 use anyhow::Result;
 use dynaslice_data::TimeSeries;
 use dynaslice_figures::display::Display;
-use dynaslice_figures::render3d::{self, Camera, Side};
+use dynaslice_figures::render3d::{self, Side};
 use dynaslice_mesh::lattice::MIN_RESOLUTION;
 use std::path::PathBuf;
 
@@ -65,11 +65,13 @@ pub struct Args {
     /// Which way round axial and coronal planes are drawn: radiological (the patient's left on
     /// the right, anterior or superior up, as PACS and planning systems show them) or
     /// neurological (the patient's left on the left). The picture's note names it.
-    #[arg(long, value_enum, default_value_t = Convention::Radiological, conflicts_with = "three_d")]
-    display: Convention,
+    #[arg(long, value_parser = choice(&Display::ALL, Display::name, Display::help),
+          default_value = Display::default().name(), conflicts_with = "three_d")]
+    display: Display,
     /// --3d: where the surfaces are seen from.
-    #[arg(long, value_enum, default_value_t = View::Oblique, requires = "three_d")]
-    view: View,
+    #[arg(long, value_parser = choice(&Side::ALL, Side::name, Side::help),
+          default_value = Side::Oblique.name(), requires = "three_d")]
+    view: Side,
     /// --3d: meshing lattice cells along the longest axis of the model's bounds.
     #[arg(long, default_value_t = 96, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION),
           requires = "three_d")]
@@ -94,57 +96,6 @@ fn one_mode(arg: clap::Arg) -> clap::Arg {
         arg.conflicts_with_all(THREE_D_ONLY)
     } else {
         arg
-    }
-}
-
-/// The conventions of `--display`.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum Convention {
-    /// The patient's left on the right of the picture.
-    Radiological,
-    /// The patient's left on the left of the picture.
-    Neurological,
-}
-
-impl From<Convention> for Display {
-    fn from(c: Convention) -> Display {
-        match c {
-            Convention::Radiological => Display::Radiological,
-            Convention::Neurological => Display::Neurological,
-        }
-    }
-}
-
-/// The views of `--view`, in the model's RAS world.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum View {
-    /// From the front, a little to the patient's right and above; superior up.
-    Oblique,
-    /// From the front (+A); superior up, the patient's right on the left.
-    Anterior,
-    /// From behind (−A); superior up.
-    Posterior,
-    /// From the patient's left (−R); superior up.
-    Left,
-    /// From the patient's right (+R); superior up.
-    Right,
-    /// From above (+S); anterior up, the patient's right on the right.
-    Superior,
-    /// From below (−S), as axial images are shown; anterior up, the patient's right on the left.
-    Inferior,
-}
-
-impl From<View> for Camera {
-    fn from(v: View) -> Camera {
-        Camera::from_side(match v {
-            View::Oblique => Side::Oblique,
-            View::Anterior => Side::Anterior,
-            View::Posterior => Side::Posterior,
-            View::Left => Side::Left,
-            View::Right => Side::Right,
-            View::Superior => Side::Superior,
-            View::Inferior => Side::Inferior,
-        })
     }
 }
 

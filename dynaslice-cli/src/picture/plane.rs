@@ -100,7 +100,7 @@ pub(super) fn run(a: Args) -> Result<()> {
             plane,
             &panels,
             unit,
-            a.display.into(),
+            a.display,
             tmp,
         )
     })?;

@@ -5,7 +5,7 @@ use crate::console::errln;
 use crate::progress::Progress;
 use crate::times::{model_times, times_option};
 use anyhow::{bail, Result};
-use dynaslice_figures::render3d::{self, default_times, draw_model, RenderOptions};
+use dynaslice_figures::render3d::{self, default_times, draw_model, Camera, RenderOptions};
 use dynaslice_mesh::Options;
 use dynaslice_model::ModelFile;
 use dynaslice_output::{Kind, Plan};
@@ -45,7 +45,7 @@ pub(super) fn run(a: Args) -> Result<()> {
         ..Options::default()
     };
     let render = RenderOptions {
-        camera: a.view.into(),
+        camera: Camera::from_side(a.view),
         panel: a.size,
         ..RenderOptions::default()
     };
