@@ -131,13 +131,7 @@ fn mesh_all(args: &Args) -> Result<()> {
     };
     // Checked against the time range (outside it the network extrapolates freely); a static
     // model's surfaces are meshed once.
-    let times = model_times(
-        &file,
-        &args.model,
-        &option,
-        &requested,
-        "writing one mesh per class",
-    )?;
+    let times = model_times(&file, &option, &requested, "writing one mesh per class")?;
     let options = Options::of(
         args.resolution,
         args.dense,

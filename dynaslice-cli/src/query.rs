@@ -42,9 +42,7 @@ pub fn run(args: Args) -> Result<()> {
     // A static model is the same at every time: any T is answered at its one time, with a
     // note, as `mesh` and `eval reference` do (issue 37).
     let t = match args.t {
-        Some(t) if file.is_static() => {
-            super::times::model_times(&file, &args.model, "T", &[t], "answering")?[0]
-        }
+        Some(t) if file.is_static() => super::times::model_times(&file, "T", &[t], "answering")?[0],
         t => file.time("T", t)?,
     };
     let k = model.num_classes();

@@ -156,6 +156,41 @@ impl ModelFile {
         Ok(())
     }
 
+    /// The times a computation asked for at `requested` (given with `option`, e.g. `--times`)
+    /// runs at: a moving model's, each checked against its time range; a static model's one
+    /// time (the start of its nominal range), with a note for the front end to show where more
+    /// times, or another time, were asked for: the work is done once instead of N identical
+    /// times. `what` names the work in the note ("one mesh per class").
+    pub fn times_for(
+        &self,
+        option: &str,
+        requested: &[f32],
+        what: &str,
+    ) -> Result<(Vec<f32>, Option<String>)> {
+        if !self.is_static() {
+            for &t in requested {
+                self.check_time(option, t)?;
+            }
+            return Ok((requested.to_vec(), None));
+        }
+        if let Some(t) = requested.iter().find(|t| !t.is_finite()) {
+            bail!(
+                "{}: {option} {t} is not a finite number",
+                self.path.display()
+            );
+        }
+        let t0 = self.model().domain().time_range().0;
+        let note = (requested.len() > 1 || requested.iter().any(|&t| t != t0)).then(|| {
+            format!(
+                "{}: a static model (trained on one timestep, ω_t^max = 0) is the same at every \
+                 time; {what} at its time {t0}, not at the {} time(s) of {option}",
+                self.path.display(),
+                requested.len()
+            )
+        });
+        Ok((vec![t0], note))
+    }
+
     /// [`ModelFile::check_time`] for each of `times`.
     pub fn check_times(&self, option: &str, times: impl IntoIterator<Item = f64>) -> Result<()> {
         times

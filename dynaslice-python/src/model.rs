@@ -93,18 +93,6 @@ impl PyModel {
         Ok((n, answers))
     }
 
-    /// An error unless every one of `times` is in the model's range.
-    fn check_times(&self, times: &[f64]) -> PyResult<()> {
-        let model = &self.model();
-        match times
-            .iter()
-            .find(|&&t| !model.domain().contains_time(t as f32))
-        {
-            Some(&t) => Err(outside(model, t as f32, "")),
-            None => Ok(()),
-        }
-    }
-
     /// The one time of a static model (trained on one timestep: ω_t^max = 0, every ω_t
     /// clamped to 0, so f does not depend on t; dynaslice-model's `ModelFile::is_static`),
     /// the start of its nominal range; `None` for a moving model.
@@ -113,23 +101,24 @@ impl PyModel {
         (model.omega_t_max() == 0.0).then(|| model.domain().time_range().0)
     }
 
-    /// The times a computation at `times` runs at: a moving model's, checked against its
-    /// range; a static model's one time, once, with a note where other times were asked for
-    /// (as `dynaslice labels` and `mesh --times` do). `what` says what is done at them.
+    /// The times a computation at `times` runs at ([`ModelFile::times_for`], the command
+    /// line's rule): a moving model's as given, checked against its range (ValueError); a
+    /// static model's one time, once, with its note on the logger where other times were asked
+    /// for. `what` says what is done at them.
     fn model_times(&self, times: &[f64], what: &str) -> PyResult<Vec<f64>> {
-        let Some(t0) = self.static_time() else {
-            self.check_times(times)?;
-            return Ok(times.to_vec());
-        };
-        if let Some(t) = times.iter().find(|t| !t.is_finite()) {
-            return Err(PyValueError::new_err(format!(
-                "time {t} is not a finite number"
-            )));
+        let requested: Vec<f32> = times.iter().map(|&t| t as f32).collect();
+        let (at, note) = self
+            .file
+            .times_for("time", &requested, what)
+            .map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
+        if let Some(note) = note {
+            log::info!("{note}");
         }
-        if times.len() > 1 || times.iter().any(|&t| t as f32 != t0) {
-            static_note(t0, &format!("the {} time(s) asked for", times.len()), what);
-        }
-        Ok(vec![f64::from(t0)])
+        // A moving model keeps the caller's f64 times (frame spacings are written from them).
+        Ok(match self.file.is_static() {
+            true => at.into_iter().map(f64::from).collect(),
+            false => times.to_vec(),
+        })
     }
 
     /// (N, K) from a point-major buffer, without copying.

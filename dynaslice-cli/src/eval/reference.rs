@@ -36,7 +36,7 @@ pub(super) fn reference(a: ReferenceArgs) -> Result<()> {
     let model = file.model();
     let k = model.num_classes();
     let t = match a.time {
-        Some(t) => model_times(&file, &a.model, "--time", &[t], "scoring its one surface")?[0],
+        Some(t) => model_times(&file, "--time", &[t], "scoring its one surface")?[0],
         None => model.domain().time_range().0,
     };
     if !(1..=k).contains(&a.class) {

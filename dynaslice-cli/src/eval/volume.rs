@@ -48,7 +48,7 @@ pub(super) fn volume(a: VolumeArgs) -> Result<()> {
         Some(series) => series.times().into_iter().map(|t| t as f32).collect(),
         None => default_times(&file)?,
     };
-    let times: Vec<f64> = model_times(&file, &a.model, &option, &requested, "measuring once")?
+    let times: Vec<f64> = model_times(&file, &option, &requested, "measuring once")?
         .into_iter()
         .map(f64::from)
         .collect();

@@ -94,14 +94,7 @@ pub(super) fn run(a: Args) -> Result<()> {
     let unit = file.units().length();
     write_via(&a.output, |tmp| {
         plane_labels(
-            &model,
-            &classes,
-            &drawn_as,
-            plane,
-            &panels,
-            unit,
-            a.display,
-            tmp,
+            &model, &classes, &drawn_as, plane, &panels, unit, a.display, tmp,
         )
     })?;
     progress.set_position(panels.len() as u64);

@@ -35,7 +35,6 @@ pub(super) fn run(a: Args) -> Result<()> {
     // static model is drawn once.
     let times = model_times(
         &file,
-        &a.model,
         &times_option(a.times.as_ref()),
         &times,
         "drawing one panel",
