@@ -4,6 +4,7 @@
 //! once and leaves nothing; the temporaries of killed runs are removed.
 
 use dynaslice_test_support::fixtures::{succeeded, two_organ_model};
+use dynaslice_test_support::spheres::{self, Sphere};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -287,6 +288,145 @@ fn no_output_replaces_an_existing_file_or_link_without_force() {
             assert!(meta.is_file(), "{}: {file:?} not replaced", case.what);
         }
         assert_eq!(std::fs::read(&reference).unwrap(), kept, "{}", case.what);
+    }
+}
+
+/// The names of the files under `dir`, recursively, relative to it.
+fn file_names(dir: &Path) -> Vec<PathBuf> {
+    snapshot(dir)
+        .into_keys()
+        .filter(|p| dir.join(p).is_file())
+        .collect()
+}
+
+/// A multi-file output written with `--force` over an earlier, larger one of the same kind (a
+/// longer series, more classes) leaves exactly the files a fresh run writes, and the user's own
+/// file in the folder: none of the earlier set's extra files (issue 37).
+#[test]
+fn a_forced_smaller_multi_file_output_leaves_none_of_the_earlier_files() {
+    let home = tempfile::tempdir().unwrap();
+    let two = model_in(home.path());
+    // A model of the first organ alone (as if retrained without the second): its ITV files
+    // replace the earlier ones of that class, so the earlier folder is this output's.
+    let one = home.path().join("liver.dsm");
+    let liver = Sphere::new([0.1, 0.0, 0.0], 0.3, 0.1);
+    std::fs::write(&one, spheres::model(&[liver], &[("liver", 1)])).unwrap();
+    let arg = |p: &Path| p.to_str().unwrap().to_string();
+    // (what, the larger run, the smaller run), `{D}` standing for the folder.
+    let runs: [(&str, Vec<String>, Vec<String>); 3] = [
+        (
+            "mesh series",
+            [
+                "mesh",
+                &arg(&two),
+                "--times",
+                "0:0.8:3",
+                "--resolution",
+                "8",
+                "-o",
+                "{D}/s",
+            ]
+            .map(String::from)
+            .to_vec(),
+            [
+                "mesh",
+                &arg(&two),
+                "--times",
+                "0:0.8:2",
+                "--resolution",
+                "8",
+                "-o",
+                "{D}/s",
+            ]
+            .map(String::from)
+            .to_vec(),
+        ),
+        (
+            "labels .seg.nrrd frames",
+            [
+                "labels",
+                &arg(&two),
+                "--times",
+                "0:0.8:3",
+                "--spacing",
+                "8",
+                "-o",
+                "{D}/s/l.seg.nrrd",
+            ]
+            .map(String::from)
+            .to_vec(),
+            [
+                "labels",
+                &arg(&two),
+                "--times",
+                "0:0.8:2",
+                "--spacing",
+                "8",
+                "-o",
+                "{D}/s/l.seg.nrrd",
+            ]
+            .map(String::from)
+            .to_vec(),
+        ),
+        (
+            "measure --itv",
+            [
+                "measure",
+                &arg(&two),
+                "--times",
+                "0:0.8:2",
+                "--resolution",
+                "8",
+                "--itv",
+                "{D}/s",
+            ]
+            .map(String::from)
+            .to_vec(),
+            [
+                "measure",
+                &arg(&one),
+                "--times",
+                "0:0.8:2",
+                "--resolution",
+                "8",
+                "--itv",
+                "{D}/s",
+            ]
+            .map(String::from)
+            .to_vec(),
+        ),
+    ];
+    let in_dir = |argv: &[String], dir: &Path| -> Vec<String> {
+        argv.iter()
+            .map(|a| a.replace("{D}", dir.to_str().unwrap()))
+            .collect()
+    };
+    for (what, larger, smaller) in &runs {
+        // The folder exists (labels writes into an existing one; the others make it).
+        let fresh = tempfile::tempdir().unwrap();
+        std::fs::create_dir(fresh.path().join("s")).unwrap();
+        succeeded(&dynaslice(&in_dir(smaller, fresh.path())));
+        let mut want = file_names(fresh.path());
+        want.push(PathBuf::from("s/notes.txt"));
+        want.sort();
+
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("s")).unwrap();
+        succeeded(&dynaslice(&in_dir(larger, dir.path())));
+        let before = file_names(dir.path()).len();
+        std::fs::write(dir.path().join("s/notes.txt"), b"mine").unwrap();
+        let mut forced = in_dir(smaller, dir.path());
+        forced.push("--force".into());
+        succeeded(&dynaslice(&forced));
+        assert_eq!(
+            file_names(dir.path()),
+            want,
+            "{what} (the larger run wrote {before})"
+        );
+        assert!(
+            before + 1 > want.len(),
+            "{what}: the larger run is not larger"
+        );
     }
 }
 

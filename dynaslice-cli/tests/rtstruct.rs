@@ -317,6 +317,34 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
             );
         }
     }
+
+    // Written again over the set with fewer times (--force), the folder holds the new set
+    // only: no RS file of the earlier, longer set is left beside it; the user's file stays.
+    std::fs::write(out.join("notes.txt"), b"mine").unwrap();
+    succeeded(
+        &dynaslice()
+            .current_dir(dir.path())
+            .args([
+                "rtstruct",
+                "lungs.dsm",
+                "--like",
+                "RS_p00.dcm",
+                "--ct",
+                "ct",
+            ])
+            .args(["--times", "0:50:2", "-o", "rs", "--force"])
+            .output()
+            .unwrap(),
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        ["RS_t000.dcm", "RS_t001.dcm", "notes.txt", "rtstruct.seq"]
+    );
 }
 
 /// Per class (0..3, the model's channels): the IoU between the regions of `seq`'s contours

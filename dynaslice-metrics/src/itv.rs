@@ -46,6 +46,23 @@ pub fn itv_files(dir: &Path, classes: &[ClassInfo]) -> Vec<ItvFiles> {
         .collect()
 }
 
+/// Whether `name` is one of [`itv_files`]' names (any class) or their colour tables.
+fn is_itv_file(name: &str) -> bool {
+    let Some(tag) = [".itv.nii.gz", ".itv.ply", ".itv.ctbl", ".itv.label.txt"]
+        .iter()
+        .find_map(|ext| name.strip_suffix(ext))
+    else {
+        return false;
+    };
+    let Some(rest) = tag.strip_prefix("class") else {
+        return false;
+    };
+    let (k, slug) = rest.split_once('_').unwrap_or((rest, ""));
+    !k.is_empty()
+        && k.bytes().all(|b| b.is_ascii_digit())
+        && slug.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-')
+}
+
 /// The ITV masks' grid over `model`'s domain at `time`: `spacing` (given with `option`;
 /// default [`DEFAULT_ITV_VOXELS`] voxels along the longest side) checked against the domain
 /// ([`VoxelGrid::for_mask`]).
@@ -93,6 +110,8 @@ pub fn write_itv(
     let times = &m.motion.times;
     let mut set = OutputSet::new();
     set.create_dir(dir)?;
+    // With --force over an earlier ITV folder of other classes, its files go too.
+    set.supersede(dir, is_itv_file);
     let masks = itv_masks(model, grid, times, &mut done)?;
     let options = mesh::Options {
         resolution,
@@ -283,6 +302,32 @@ mod tests {
     use super::*;
     use dynaslice_mesh::PointField;
     use dynaslice_test_support::spheres::{self, Sphere};
+
+    /// Every file an ITV folder holds is recognised as one, and nothing else.
+    #[test]
+    fn itv_file_names_are_told_from_others() {
+        let classes = [ClassInfo {
+            name: "GTV left/upper".into(),
+            label: 7,
+            color: None,
+        }];
+        for f in itv_files(Path::new("itv"), &classes) {
+            let (ctbl, label) = table_paths(&f.mask);
+            for p in [&f.mask, &f.mesh, &ctbl, &label] {
+                let name = p.file_name().unwrap().to_str().unwrap();
+                assert!(is_itv_file(name), "{name}");
+            }
+        }
+        for other in [
+            "notes.txt",
+            "class1.nii.gz",
+            "classx.itv.ply",
+            "gtv.itv.ply",
+            "class1_a b.itv.ply",
+        ] {
+            assert!(!is_itv_file(other), "{other}");
+        }
+    }
 
     /// A growing sphere's ITV is its largest ball: the mask's voxel count and the mesh's volume
     /// against the closed form, and the mesh closed.

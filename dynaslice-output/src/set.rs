@@ -32,8 +32,15 @@ struct Staged {
     path: PathBuf,
 }
 
-/// A test of a file name: whether it is one of a kind of set's files.
-type Member = fn(&str) -> bool;
+/// A test of a file name: whether it is one of a kind of set's files (for a set named after
+/// its output, such as `heart_t07.seg.nrrd`, the test holds the output's stem).
+struct Member(Box<dyn Fn(&str) -> bool + Send + Sync>);
+
+impl std::fmt::Debug for Member {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Member(..)")
+    }
+}
 
 /// The files of one multi-file output, committed together (see the module's documentation).
 #[derive(Debug, Default)]
@@ -141,8 +148,13 @@ impl OutputSet {
     /// also removes every such file in `dir` that this set does not write, so no file of a
     /// longer earlier series is left beside the new one. Nothing else in `dir` is touched,
     /// and a failed commit puts the removed files back.
-    pub fn supersede(&mut self, dir: &Path, is_member: Member) {
-        self.superseded.push((dir.to_path_buf(), is_member));
+    pub fn supersede(
+        &mut self,
+        dir: &Path,
+        is_member: impl Fn(&str) -> bool + Send + Sync + 'static,
+    ) {
+        self.superseded
+            .push((dir.to_path_buf(), Member(Box::new(is_member))));
     }
 
     /// The files of the earlier sets [`OutputSet::supersede`] names that this set does not
@@ -164,7 +176,7 @@ impl OutputSet {
                 let is_dir = entry.file_type().is_ok_and(|t| t.is_dir());
                 let name = entry.file_name();
                 let Some(name) = name.to_str() else { continue };
-                if is_dir || !is_member(name) {
+                if is_dir || !(is_member.0)(name) {
                     continue;
                 }
                 let path = dir.join(name);

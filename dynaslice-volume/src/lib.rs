@@ -29,7 +29,8 @@ pub mod voxel_grid;
 use dynaslice_data::color_table::{stage_tables, table_paths};
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
 use dynaslice_data::nrrd::{
-    frame_path, sequence_path, stage_segmentation, SegmentationHeader, SequenceWriter,
+    frame_name_test, frame_path, sequence_path, stage_segmentation, SegmentationHeader,
+    SequenceWriter,
 };
 use dynaslice_data::ClassInfo;
 pub use pruned::{Evaluation, PruneStats, DEFAULT_SAFETY};
@@ -328,6 +329,11 @@ pub fn write_model_labels_with(
     // goes in place at the end, all or none: a failure or an interruption leaves nothing new
     // and an earlier output untouched.
     let mut set = OutputSet::new();
+    if segmentation && frames > 1 {
+        // With --force over a longer series, its extra frames go too.
+        let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+        set.supersede(dir.unwrap_or(Path::new(".")), frame_name_test(path));
+    }
     let mut stream = if segmentation {
         None
     } else {

@@ -178,6 +178,8 @@ impl<'m> StructureSets<'m> {
     pub fn write(&self, dir: &Path, force: bool, mut step: impl FnMut(Contoured)) -> Result<()> {
         let mut files = OutputSet::new();
         files.create_dir(dir)?;
+        // With --force over a set of more times, the earlier set's extra RS files go too.
+        files.supersede(dir, is_set_name);
         if !force {
             if let Some(path) = self.files(dir).into_iter().find(|p| p.exists()) {
                 bail!(
@@ -257,6 +259,13 @@ impl<'m> StructureSets<'m> {
 /// The file name of the `i`th time's structure set.
 fn set_name(i: usize) -> String {
     format!("RS_t{i:03}.dcm")
+}
+
+/// Whether `name` is one of [`set_name`]'s names (any number of digits).
+fn is_set_name(name: &str) -> bool {
+    name.strip_prefix("RS_t")
+        .and_then(|rest| rest.strip_suffix(".dcm"))
+        .is_some_and(|i| !i.is_empty() && i.bytes().all(|b| b.is_ascii_digit()))
 }
 
 /// The times of the model's training input: the distinct times of the sequence manifest its

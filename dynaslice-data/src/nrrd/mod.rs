@@ -66,8 +66,8 @@ mod write;
 
 pub use read::read_volume;
 pub use write::{
-    frame_path, sequence_path, stage_segmentation, write_segmentation, SegmentationHeader,
-    SequenceWriter,
+    frame_name_test, frame_path, sequence_path, stage_segmentation, write_segmentation,
+    SegmentationHeader, SequenceWriter,
 };
 
 #[cfg(doc)]

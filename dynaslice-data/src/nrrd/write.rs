@@ -45,6 +45,20 @@ pub fn frame_path(path: &Path, frame: usize, frames: usize) -> PathBuf {
     ))
 }
 
+/// A test of a file name: whether it is one of the names [`frame_path`] gives a series of any
+/// length written to `path` (`heart_t7.seg.nrrd`, `heart_t07.seg.nrrd`, …), so that a series
+/// written over a longer one can remove the earlier frames it does not write again.
+pub fn frame_name_test(path: &Path) -> impl Fn(&str) -> bool + Send + Sync + 'static {
+    let (name, stem) = name_and_stem(path);
+    let (prefix, ext) = (format!("{}_t", &name[..stem]), name[stem..].to_string());
+    move |candidate: &str| {
+        candidate
+            .strip_prefix(prefix.as_str())
+            .and_then(|rest| rest.strip_suffix(ext.as_str()))
+            .is_some_and(|i| !i.is_empty() && i.bytes().all(|b| b.is_ascii_digit()))
+    }
+}
+
 /// Writes one frame's `labels` (x fastest, one per voxel of `header.dims`) as a 3D Slicer
 /// segmentation, atomically: on any error nothing is left at `path`. Every nonzero label must
 /// be one of `header.classes`.
@@ -414,6 +428,28 @@ mod tests {
             Path::new("a_t3.NRRD")
         );
         assert_eq!(frame_path(Path::new("x.bin"), 0, 2), Path::new("x.bin_t0"));
+    }
+
+    #[test]
+    fn frame_names_of_any_series_length_are_recognised() {
+        let is_frame = frame_name_test(Path::new("/out/heart.seg.nrrd"));
+        for frames in [2, 11, 101] {
+            let name = frame_path(Path::new("/out/heart.seg.nrrd"), 1, frames);
+            assert!(
+                is_frame(name.file_name().unwrap().to_str().unwrap()),
+                "{frames}"
+            );
+        }
+        for other in [
+            "heart.seg.nrrd",
+            "heart.seq.nrrd",
+            "heart_t.seg.nrrd",
+            "heart_tx.seg.nrrd",
+            "lung_t01.seg.nrrd",
+            "heart_t01.nrrd",
+        ] {
+            assert!(!is_frame(other), "{other}");
+        }
     }
 
     #[test]
