@@ -15,6 +15,8 @@ step() { echo; echo "=== python: $* ($(( $(date +%s) - start ))s)"; }
 
 step "format and lints of the extension crate"
 cargo fmt --manifest-path "$here/Cargo.toml" --check
+# The extension is outside the workspace, so the workspace's clippy step does not lint it.
+cargo clippy --manifest-path "$here/Cargo.toml" --all-targets -- -D warnings
 
 step "venv $venv"
 python3 -m venv "$venv"

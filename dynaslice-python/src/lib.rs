@@ -12,6 +12,7 @@
 pub mod batch;
 pub mod figures;
 pub mod model;
+pub mod progress;
 pub mod train;
 
 use dynaslice_core::{format::ModelWriter, ModelBytes};

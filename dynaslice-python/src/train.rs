@@ -6,19 +6,15 @@
 //! is handed to a Python callable, and Ctrl-C stops at a checkpoint.
 
 use crate::model::PyModel;
+use crate::progress::Watch;
 use crate::DynasliceError;
 use dynaslice_data::input_spec::InputSpec;
 use dynaslice_train::job::{self, Job, SetError, Words};
-use dynaslice_train::{fit::Observer, spec::SpecError, spec::TrainSpec, trainer::Progress};
+use dynaslice_train::{spec::SpecError, spec::TrainSpec};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{IntoPyDict, PyDict, PyString};
-use std::time::{Duration, Instant};
-use std::{ops::ControlFlow, path::PathBuf};
-
-/// How often Python is asked for Ctrl-C (and the callback is called) at the most: often enough
-/// to stop within a blink, rarely enough to cost nothing next to a step.
-const POLL: Duration = Duration::from_millis(50);
+use pyo3::types::{PyDict, PyString};
+use std::path::PathBuf;
 
 /// A bad option as `ValueError` with the command line's words (`lr: -1: out of range; …`);
 /// any other failure as `DynasliceError` with the full cause chain, as `dynaslice` prints it.
@@ -67,11 +63,11 @@ pub fn train(
         })?;
     }
     let job = Job::new(&input, &spec, &output, Words::PYTHON);
-    let mut watch = Watch(progress, None, None);
+    let mut watch = Watch::new(progress);
     let finished = py
         .detach(|| job::run(&job, &mut watch))
         .map_err(job_error)?;
-    let Some(e) = watch.1 else {
+    let Some(e) = watch.stopped_by() else {
         return PyModel::from_model_bytes(finished.trained.bytes, &output.display().to_string());
     };
     let note = finished.interrupted("resume=True");
@@ -81,49 +77,4 @@ pub fn train(
     // The callback's own exception, with where the run stands as a note.
     let _ = e.value(py).call_method1("add_note", (note,));
     Err(e)
-}
-
-/// How often the index's progress is printed while it is built.
-const INDEXING_LINES: Duration = Duration::from_secs(5);
-
-/// The run as Python sees it: the `progress` callback and Ctrl-C, polled at most every
-/// [`POLL`] (the last poll's time); why training stopped early (Ctrl-C or the callback's
-/// exception), raised after the job.
-struct Watch(Option<Py<PyAny>>, Option<PyErr>, Option<Instant>);
-
-impl Observer for Watch {
-    fn step(&mut self, p: &Progress) -> ControlFlow<()> {
-        if self.2.is_some_and(|t| t.elapsed() < POLL) && p.step < p.steps {
-            return ControlFlow::Continue(());
-        }
-        self.2 = Some(Instant::now());
-        let polled = Python::attach(|py| -> PyResult<()> {
-            py.check_signals()?;
-            if let Some(callback) = &self.0 {
-                let info = [("step", p.step), ("steps", p.steps)].into_py_dict(py)?;
-                for (key, value) in p.figures() {
-                    info.set_item(key, value)?;
-                }
-                callback.call1(py, (info,))?;
-            }
-            Ok(())
-        });
-        self.1 = polled.err();
-        self.1
-            .as_ref()
-            .map_or(ControlFlow::Continue(()), |_| ControlFlow::Break(()))
-    }
-
-    fn note(&mut self, line: &str) {
-        // Where `dynaslice train` prints it: standard error.
-        eprintln!("{line}");
-    }
-
-    fn indexing(&mut self, done: usize, total: usize) {
-        // A line every few seconds, as the command line prints one, and the last.
-        if done == total || self.2.is_none_or(|t| t.elapsed() >= INDEXING_LINES) {
-            eprintln!("building the sampling index: annotation {done}/{total}");
-            self.2 = Some(Instant::now());
-        }
-    }
 }
