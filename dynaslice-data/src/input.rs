@@ -28,7 +28,7 @@ use crate::nifti::HeaderSpacing;
 use dynaslice_sequence::error::{DataError, ErrorKind, Result};
 use dynaslice_sequence::native;
 use dynaslice_sequence::sequence::Sequence;
-use dynaslice_sequence::space::{Space, Units};
+use dynaslice_sequence::space::{Space, TimeUnit, Units};
 
 /// How the inputs are read. [`Default`] is what the command line does without options.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -82,6 +82,22 @@ pub fn space_of(paths: &[PathBuf]) -> Result<(Space, Units)> {
                 .unwrap_or((Space::Ras, Units::Plain)))
         }
     }
+}
+
+/// The unit of the times of inputs read together: the first input's (every input has the
+/// same times): a NIfTI's `xyzt_units`, a manifest's own ([`TimeUnit::Manifest`]), none for
+/// the other formats.
+pub fn time_unit_of(paths: &[PathBuf]) -> Result<TimeUnit> {
+    let Some(first) = paths.first() else {
+        return Err(ErrorKind::Empty("no input".into()).into());
+    };
+    Ok(match InputKind::of(first)? {
+        InputKind::Nifti => nifti::read_time_unit(first)?,
+        InputKind::Manifest => TimeUnit::Manifest,
+        InputKind::Nrrd | InputKind::RtStruct | InputKind::Native | InputKind::Csl => {
+            TimeUnit::Plain
+        }
+    })
 }
 
 /// Reads `paths` into one sequence, keeping the selected frames.

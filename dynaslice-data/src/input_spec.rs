@@ -14,7 +14,7 @@ use crate::reslice::ResliceOptions;
 use crate::rtstruct::RoiExtent;
 use dynaslice_sequence::error::{ErrorKind, Result};
 use dynaslice_sequence::sequence::Sequence;
-use dynaslice_sequence::space::{Space, Units};
+use dynaslice_sequence::space::{Space, TimeUnit, Units};
 use std::path::PathBuf;
 
 /// The input options of `dynaslice train` and `dynaslice.train`, by the same names.
@@ -269,6 +269,11 @@ impl InputSpec {
     /// The frame and units of the inputs' coordinates ([`input::space_of`]).
     pub fn space(&self) -> Result<(Space, Units)> {
         input::space_of(&self.inputs)
+    }
+
+    /// The unit of the inputs' times ([`input::time_unit_of`]).
+    pub fn time_unit(&self) -> Result<TimeUnit> {
+        input::time_unit_of(&self.inputs)
     }
 }
 

@@ -43,7 +43,7 @@ pub mod voxel_type;
 
 pub use dynaslice_sequence::{
     Aabb, Annotation, ClassInfo, DataError, ErrorKind, Frame, Location, Plane, Rect, Result,
-    Sequence, Space, Units,
+    Sequence, Space, TimeUnit, Units,
 };
 pub use frame_range::FrameRange;
 pub use label_table::LabelTable;

@@ -9,7 +9,7 @@
 use std::io::Read;
 use std::path::Path;
 
-use nifti::{Endianness, NiftiHeader, NiftiType};
+use nifti::{Endianness, NiftiHeader, NiftiType, Unit};
 
 use super::label_table::LabelTable;
 use super::label_volume::{det3, Geometry, LabelVolume};
@@ -19,6 +19,7 @@ use super::voxel_type::VoxelType;
 use dynaslice_sequence::error::{DataError, ErrorKind, Result};
 use dynaslice_sequence::input_file;
 use dynaslice_sequence::sequence::Sequence;
+use dynaslice_sequence::TimeUnit;
 
 /// Deflate's largest expansion (one 258-byte match per two bits): a `.nii.gz` of n bytes cannot
 /// hold more than this × n bytes of NIfTI.
@@ -301,6 +302,25 @@ fn time_origin(h: &NiftiHeader) -> std::result::Result<f64, ErrorKind> {
             "toffset (time of the first frame) is {t}"
         )))
     }
+}
+
+/// The unit of the times of the NIfTI file at `path` (`pixdim[4]`, `toffset`), from its
+/// header's `xyzt_units`: seconds, milliseconds or microseconds; [`TimeUnit::Plain`] where it
+/// states none (or a code that is no time unit, such as Hz).
+pub fn read_time_unit(path: &Path) -> Result<TimeUnit> {
+    let Source { mut source, .. } = Source::open(path)?;
+    let header = NiftiHeader::from_reader(&mut source).map_err(|e| {
+        DataError::new(ErrorKind::Nifti(format!(
+            "unreadable or truncated header: {e}"
+        )))
+        .in_file(path)
+    })?;
+    Ok(match header.xyzt_to_time() {
+        Ok(Unit::Sec) => TimeUnit::Seconds,
+        Ok(Unit::Msec) => TimeUnit::Milliseconds,
+        Ok(Unit::Usec) => TimeUnit::Microseconds,
+        _ => TimeUnit::Plain,
+    })
 }
 
 /// The time of frame 0 of the NIfTI file at `path` (`toffset`), from its header.

@@ -1,14 +1,16 @@
 //! NIfTI headers as real exports write them, made with nibabel: an sform of unit spacing beside
 //! a `pixdim` (and qform) of 1.56 × 1.56 × 10 mm is read with the sform and a warning naming
 //! both, and `--header-spacing` picks the other; a 4D label map's `toffset` places its frames
-//! (trigger times in ms), in training input and in a reference grid alike.
+//! (trigger times in ms), in training input and in a reference grid alike, and its unit is the
+//! input's time unit.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, Once};
 
 use dynaslice_data::input_spec::InputSpec;
 use dynaslice_data::nifti::{read_geometry, read_labelled_volume_with, HeaderSpacing};
-use dynaslice_data::ErrorKind;
+use dynaslice_data::input::time_unit_of;
+use dynaslice_data::{ErrorKind, TimeUnit};
 use dynaslice_test_support::python::run_python;
 
 /// Warnings logged by the readers (filtered by file name: tests run in parallel).
@@ -169,10 +171,16 @@ fn toffset_places_a_label_map_s_frames_in_training_and_as_a_reference() {
     assert!((g.time_origin - 287.7).abs() < 1e-4, "{}", g.time_origin);
     assert_eq!(g.frame_interval, 422.0);
     let spec = InputSpec {
-        inputs: vec![phases],
+        inputs: vec![phases.clone()],
         planes: Some("slices".parse().unwrap()),
         ..InputSpec::default()
     };
+    // The unit the header states (xyzt_units: msec) is the one the model will record; a
+    // manifest's times are its own.
+    assert_eq!(spec.time_unit().unwrap(), TimeUnit::Milliseconds);
+    let manifest = at.join("phases.seq");
+    std::fs::write(&manifest, format!("0 {}\n", phases.display())).unwrap();
+    assert_eq!(time_unit_of(&[manifest]).unwrap(), TimeUnit::Manifest);
     let times: Vec<f64> = spec
         .read()
         .unwrap()

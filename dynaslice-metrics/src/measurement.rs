@@ -5,7 +5,7 @@
 use crate::motion::{self, reported_space, round, Cycle, Motion, Space, Units, RIGID_WITHIN};
 use anyhow::Result;
 use dynaslice_core::Model;
-use dynaslice_data::{ClassInfo, TimeSeries};
+use dynaslice_data::{ClassInfo, TimeSeries, TimeUnit};
 use dynaslice_model::ModelFile;
 use dynaslice_sequence::palette;
 use serde_json::{json, Value};
@@ -22,6 +22,8 @@ pub struct Described {
     /// The input's patient frame; `None` where its axes have no anatomical meaning
     /// ([`reported_space`]).
     pub space: Option<Space>,
+    /// The unit of the input's times.
+    pub time_unit: TimeUnit,
     /// Names, source labels and recorded colours, channel order.
     pub classes: Vec<ClassInfo>,
     /// Display colour per class (recorded or the palette's).
@@ -30,12 +32,13 @@ pub struct Described {
 
 impl Described {
     /// What `file`'s run record says its figures mean ([`dynaslice_model::RunRecord`]: plain
-    /// units, LPS where it records none).
+    /// units and times, LPS where it records none).
     pub fn of(file: &ModelFile) -> Described {
         let units = file.units();
         Described {
             units,
             space: reported_space(units, file.space()),
+            time_unit: file.record().time_unit(),
             classes: file.classes(),
             colors: file.class_colors(),
         }
@@ -54,6 +57,8 @@ pub struct Measurement {
     /// The input's patient frame; `None` where its axes have no anatomical meaning (reported
     /// as the world's x, y, z).
     pub space: Option<Space>,
+    /// The unit of the input's times.
+    pub time_unit: TimeUnit,
     /// Names, source labels and recorded colours, channel order.
     pub classes: Vec<ClassInfo>,
     /// Display colour per class (recorded or the palette's).
@@ -100,6 +105,7 @@ impl Measurement {
             resolution,
             units: what.units,
             space: what.space,
+            time_unit: what.time_unit,
             classes: what.classes,
             colors: what.colors,
         })
@@ -152,20 +158,10 @@ impl Measurement {
         motion::from_world(self.space, p)
     }
 
-    /// The time axis's name ([`time_axis`]).
+    /// The time axis's name, with the unit the model records for its input's times
+    /// ([`TimeUnit::axis`]).
     pub fn time_axis(&self) -> &'static str {
-        time_axis(self.space)
-    }
-}
-
-/// The time axis's name for inputs in `space`: NIfTI (RAS) frames are seconds apart
-/// (`pixdim[4]`), a DICOM manifest's (LPS) times are its own (often % of the breathing
-/// cycle); inputs without units have plain times.
-pub fn time_axis(space: Option<Space>) -> &'static str {
-    match space {
-        Some(Space::Ras) => "time (s)",
-        Some(Space::Lps) => "time (manifest)",
-        None => "time",
+        self.time_unit.axis()
     }
 }
 

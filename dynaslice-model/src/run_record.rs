@@ -12,6 +12,7 @@
 //! - [`RunRecord::space`]: LPS, the frame every output of those models was tagged with
 //!   ([`Space::default`]);
 //! - [`RunRecord::units`]: [`Units::Plain`], no unit claimed where none was recorded;
+//! - [`RunRecord::time_unit`]: [`TimeUnit::Plain`], likewise;
 //! - [`RunRecord::channel_colors`]: no colour (the palette's colour for the channel).
 //!
 //! A line whose key the record does not know is kept verbatim ([`RunRecord::other`]), and
@@ -20,7 +21,7 @@
 use dynaslice_core::Model;
 use dynaslice_sequence::nesting::{from_labels, Nested};
 use dynaslice_sequence::palette::{parse_hex, to_hex};
-use dynaslice_sequence::{ClassInfo, Space, Units};
+use dynaslice_sequence::{ClassInfo, Space, TimeUnit, Units};
 use std::fmt::Write as _;
 
 /// The samples one training step draws (dynaslice-train's `SampleCounts`), as recorded.
@@ -79,6 +80,8 @@ pub struct RunRecord {
     pub space: Option<Space>,
     /// `units`: the input's length unit.
     pub units: Option<Units>,
+    /// `time_unit`: the unit of the input's times.
+    pub time_unit: Option<TimeUnit>,
     /// `nesting`: classes drawn nested and trained disjoint, `(inner, outer)` by source label
     /// (`3:7 5:3`), each class with its direct outer (`dynaslice_sequence::nesting`).
     pub nesting: Option<Vec<NestedLabels>>,
@@ -172,6 +175,16 @@ impl Field for Space {
 impl Field for Units {
     fn parse(text: &str) -> Result<Self, String> {
         Units::from_name(text).ok_or_else(|| format!("{text:?} is not mm or none"))
+    }
+    fn emit(&self, out: &mut String) {
+        out.push_str(self.name());
+    }
+}
+
+impl Field for TimeUnit {
+    fn parse(text: &str) -> Result<Self, String> {
+        TimeUnit::from_name(text)
+            .ok_or_else(|| format!("{text:?} is not s, ms, us, manifest or none"))
     }
     fn emit(&self, out: &mut String) {
         out.push_str(self.name());
@@ -388,6 +401,7 @@ fields! {
     reading = "reading",
     space = "space",
     units = "units",
+    time_unit = "time_unit",
     nesting = "nesting",
     widths = "widths",
     steps = "steps",
@@ -467,6 +481,12 @@ impl RunRecord {
         self.units.unwrap_or(Units::Plain)
     }
 
+    /// The unit of the input's times; [`TimeUnit::Plain`] where none is recorded (the
+    /// module's rule).
+    pub fn time_unit(&self) -> TimeUnit {
+        self.time_unit.unwrap_or(TimeUnit::Plain)
+    }
+
     /// The nesting of `model`'s classes ([`RunRecord::nesting`] as class indices, checked);
     /// empty where none is recorded.
     pub fn nested(&self, model: &Model) -> Result<Vec<Nested>, String> {
@@ -521,7 +541,7 @@ mod tests {
 
     /// Metadata as the trainer writes it, every key present.
     const FULL: &str = "trainer = dynaslice 0.1.0\ninput = a.nii.gz + b.nii.gz\nframes = 0:\n\
-        reading = labels=1,2,3; planes=sparse\nspace = RAS\nunits = mm\nnesting = 2:1 -3:2\nwidths = [256, 256, 256]\nsteps = 3000\nseed = 7\nthreads = 2\n\
+        reading = labels=1,2,3; planes=sparse\nspace = RAS\nunits = mm\ntime_unit = ms\nnesting = 2:1 -3:2\nwidths = [256, 256, 256]\nsteps = 3000\nseed = 7\nthreads = 2\n\
         omega_0 = 20\noffset = 0.2\nomega_t_max = inf\nlr = 0.0001 -> 0.000001\n\
         warmup_steps = 0\nlambda_orientation = 0.1\nlambda_plane = 1\nlambda_regulariser = 0.05\n\
         alpha = 100\ntemporal_factor = 0.5\nsteps_done = 3000\nplanned_steps = 2871\n\
@@ -556,6 +576,7 @@ mod tests {
         assert_eq!(old.space, None);
         assert_eq!(old.space(), Space::Lps);
         assert_eq!(old.units(), Units::Plain);
+        assert_eq!(old.time_unit(), TimeUnit::Plain);
         assert_eq!(old.class_colors, None);
         assert_eq!(RunRecord::parse("").unwrap(), RunRecord::default());
     }

@@ -8,7 +8,7 @@
 //! | classes drawn one inside another, and how the model records it | [`nesting`] |
 //! | the native JSON form (`docs/data-format.md`) | [`native::read`], [`native::write`] |
 //! | opening a user's file: regular files only, reads capped by the format | [`input_file`] |
-//! | the patient frame and units coordinates come in | [`Space`], [`Units`] |
+//! | the patient frame and units coordinates and times come in | [`Space`], [`Units`], [`TimeUnit`] |
 //! | the class colours every output shares | [`palette`] |
 //!
 //! The file formats users bring (`.csl`, NIfTI, NRRD, DICOM RT Structure Sets) are read by
@@ -28,4 +28,4 @@ pub mod space;
 pub use error::{DataError, ErrorKind, Location, Result};
 pub use nesting::Nested;
 pub use sequence::{Aabb, Annotation, ClassInfo, Frame, Plane, Rect, Sequence};
-pub use space::{Space, Units};
+pub use space::{Space, TimeUnit, Units};

@@ -162,6 +162,65 @@ impl Units {
     }
 }
 
+/// The unit of an input's times, which the model records and every output labels its time
+/// axis with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum TimeUnit {
+    /// Seconds: a NIfTI's `pixdim[4]` and `toffset` with `xyzt_units` in seconds.
+    Seconds,
+    /// Milliseconds (`xyzt_units`), as cine MRI trigger times are often given.
+    Milliseconds,
+    /// Microseconds (`xyzt_units`).
+    Microseconds,
+    /// A sequence manifest's own times (`<time> <path>` lines): a trigger time, a breathing
+    /// phase in %, whatever the user wrote.
+    Manifest,
+    /// No unit stated (a NIfTI without one, NRRD, `.csl`, native JSON).
+    Plain,
+}
+
+impl TimeUnit {
+    /// The model metadata key recording the input's time unit ([`TimeUnit::name`]).
+    pub const METADATA_KEY: &'static str = "time_unit";
+
+    /// Every unit, in [`TimeUnit::name`]'s order.
+    pub const ALL: [TimeUnit; 5] = [
+        TimeUnit::Seconds,
+        TimeUnit::Milliseconds,
+        TimeUnit::Microseconds,
+        TimeUnit::Manifest,
+        TimeUnit::Plain,
+    ];
+
+    /// `s`, `ms`, `us`, `manifest` or `none`.
+    pub fn name(self) -> &'static str {
+        match self {
+            TimeUnit::Seconds => "s",
+            TimeUnit::Milliseconds => "ms",
+            TimeUnit::Microseconds => "us",
+            TimeUnit::Manifest => "manifest",
+            TimeUnit::Plain => "none",
+        }
+    }
+
+    /// The unit a metadata value names.
+    pub fn from_name(name: &str) -> Option<TimeUnit> {
+        TimeUnit::ALL.into_iter().find(|u| u.name() == name.trim())
+    }
+
+    /// The time axis's name for display: `time (s)`, `time (ms)`, `time (µs)`,
+    /// `time (manifest)`, or `time`.
+    pub fn axis(self) -> &'static str {
+        match self {
+            TimeUnit::Seconds => "time (s)",
+            TimeUnit::Milliseconds => "time (ms)",
+            TimeUnit::Microseconds => "time (µs)",
+            TimeUnit::Manifest => "time (manifest)",
+            TimeUnit::Plain => "time",
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,6 +233,10 @@ mod tests {
         for u in [Units::Millimetres, Units::Plain] {
             assert_eq!(Units::from_name(u.name()), Some(u));
         }
+        for u in TimeUnit::ALL {
+            assert_eq!(TimeUnit::from_name(u.name()), Some(u));
+        }
         assert_eq!(Space::from_name("xyz"), None);
+        assert_eq!(TimeUnit::from_name("min"), None);
     }
 }

@@ -20,7 +20,7 @@ use dynaslice_core::ModelBytes;
 use dynaslice_model::RunRecord;
 use dynaslice_output::write_atomically;
 use dynaslice_sequence::nesting::to_labels;
-use dynaslice_sequence::{Sequence, Space, Units};
+use dynaslice_sequence::{Sequence, Space, TimeUnit, Units};
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -93,10 +93,12 @@ pub struct InputRecord {
     pub space: Space,
     /// The inputs' length unit.
     pub units: Units,
+    /// The unit of the inputs' times.
+    pub time_unit: TimeUnit,
 }
 
 impl InputRecord {
-    /// The record's `input`, `frames`, `reading`, `space` and `units`.
+    /// The record's `input`, `frames`, `reading`, `space`, `units` and `time_unit`.
     fn record(&self) -> RunRecord {
         RunRecord {
             input: Some(self.description.clone()),
@@ -104,6 +106,7 @@ impl InputRecord {
             reading: self.reading.clone(),
             space: Some(self.space),
             units: Some(self.units),
+            time_unit: Some(self.time_unit),
             ..RunRecord::default()
         }
     }

@@ -239,6 +239,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Finished> {
         reading: input.reading(),
         space,
         units,
+        time_unit: input.time_unit()?,
     };
     let trained = fit_checked(&seq, spec, &record, Some((&files, resuming)), observer)?;
     if trained.stopped {

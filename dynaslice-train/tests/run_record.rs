@@ -3,7 +3,7 @@
 //! file's text byte for byte.
 
 use dynaslice_model::{RunRecord, SampleRecord};
-use dynaslice_sequence::{Sequence, Space, Units};
+use dynaslice_sequence::{Sequence, Space, TimeUnit, Units};
 use dynaslice_synth::{BenchmarkOptions, Shape};
 use dynaslice_train::fit::{fit, InputRecord, Quiet};
 use dynaslice_train::spec::TrainSpec;
@@ -37,6 +37,7 @@ fn the_trainers_metadata_is_a_run_record() {
         reading: Some("labels=1,2; planes=slices".into()),
         space: Space::Lps,
         units: Units::Millimetres,
+        time_unit: TimeUnit::Milliseconds,
     };
     let trained = fit(&seq, &spec, &input, None, &mut Quiet).unwrap();
     let model = trained.bytes.model().unwrap();
@@ -62,6 +63,7 @@ fn the_trainers_metadata_is_a_run_record() {
     assert_eq!(record.reading.as_deref(), Some("labels=1,2; planes=slices"));
     assert_eq!(record.space, Some(Space::Lps));
     assert_eq!(record.units, Some(Units::Millimetres));
+    assert_eq!(record.time_unit, Some(TimeUnit::Milliseconds));
     assert_eq!(record.widths, Some(vec![8, 8]));
     assert_eq!((record.steps, record.steps_done), (Some(3), Some(3)));
     assert_eq!((record.seed, record.threads), (Some(11), Some(1)));

@@ -21,7 +21,7 @@
 
 use anyhow::{bail, Context, Result};
 use dynaslice_core::{Model, ModelBytes, Scratch};
-use dynaslice_data::{Space, Units};
+use dynaslice_data::{Space, TimeUnit, Units};
 use dynaslice_synth::{BenchmarkOptions, Shape};
 use dynaslice_train::fit::{fit, InputRecord, Quiet};
 use dynaslice_train::spec::TrainSpec;
@@ -83,6 +83,7 @@ fn trained_model(a: &Args) -> Result<ModelBytes> {
         reading: None,
         space: Space::Ras,
         units: Units::Plain,
+        time_unit: TimeUnit::Plain,
     };
     eprintln!("training {} steps on the synthetic chambers", a.steps);
     let trained = fit(&seq, &spec, &input, None, &mut Quiet)?;

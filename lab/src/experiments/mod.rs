@@ -19,7 +19,7 @@ pub mod torch_step;
 
 use anyhow::Result;
 use dynaslice_core::{Model, ModelBytes};
-use dynaslice_data::{Sequence, Space, Units};
+use dynaslice_data::{Sequence, Space, TimeUnit, Units};
 use dynaslice_train::fit::{self, InputRecord, Observer, Quiet};
 use dynaslice_train::spec::TrainSpec;
 use dynaslice_train::trainer::TrainOptions;
@@ -122,6 +122,7 @@ pub fn fit(
         reading: None,
         space: Space::Ras,
         units: Units::Plain,
+        time_unit: TimeUnit::Plain,
     };
     let trained = fit::fit(seq, spec, &record, None, observer)?;
     Ok(Fitted {
