@@ -21,7 +21,7 @@ import sys
 import time
 
 # Silences listed one by one: over 5 s, the rule, with 0.5 s for the scheduling of a progress
-# ticker that prints every 5 s (dynaslice-cli's progress.rs) on a loaded machine.
+# ticker that prints every 4 s (dynaslice-cli's progress.rs) on a loaded machine.
 OVER = 5.5
 
 

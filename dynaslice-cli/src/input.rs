@@ -121,7 +121,7 @@ impl InputArgs {
 pub fn read_as_trained(args: &InputArgs, file: &ModelFile) -> Result<Sequence> {
     let spec = args.spec_as_trained(file)?;
     // Reading and reslicing a label map takes seconds (8 s for a 64³ × 9 map on a loaded
-    // 2-core machine): a progress line every 5 s meanwhile, not silence (issue 39).
+    // 2-core machine): a progress line every few seconds meanwhile, not silence (issue 39).
     let progress = Progress::new(&format!("reading {}: input", spec.describe()), 1);
     let seq = spec.read()?;
     progress.inc();

@@ -79,7 +79,7 @@ pub fn run(a: Args) -> Result<()> {
         sequence,
         name: a.input.describe(),
     });
-    // Drawing the charts, surfaces and plane pictures takes tens of seconds: a line every 5 s.
+    // Drawing the charts, surfaces and plane pictures takes tens of seconds: a line every few seconds.
     let drawing = Progress::new("drawing the report's charts, surfaces and pictures", 1);
     let html = dynaslice_report::assemble_with_input(&file, &m, Some(&loss_csv), input.as_ref())?
         .to_html();

@@ -9,7 +9,7 @@
 use super::console::errln;
 use super::input::InputArgs;
 use super::options::flag_args;
-use super::progress::Progress as Bar;
+use super::progress::{Progress as Bar, QUIET};
 use anyhow::{bail, Result};
 use dynaslice_train::fit::Observer;
 use dynaslice_train::flags::FLAGS;
@@ -20,7 +20,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::ops::ControlFlow;
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// Arguments of `dynaslice train`.
 #[derive(clap::Args, Debug)]
@@ -95,7 +95,7 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// The run on the terminal: a progress bar there, a log line every 5 s elsewhere; Ctrl-C
+/// The run on the terminal: a progress bar there, a log line every [`QUIET`] elsewhere; Ctrl-C
 /// stops it.
 struct Console {
     bar: Option<ProgressBar>,
@@ -145,7 +145,7 @@ impl Observer for Console {
                 bar.set_position(p.step);
                 bar.set_message(p.to_string());
             }
-            None if self.last_log.elapsed() >= Duration::from_secs(5) || p.step == p.steps => {
+            None if self.last_log.elapsed() >= QUIET || p.step == p.steps => {
                 errln!("step {}/{} {:.1} s {p}", p.step, p.steps, p.elapsed);
                 self.last_log = Instant::now();
             }

@@ -7,9 +7,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, Once};
 
+use dynaslice_data::input::time_unit_of;
 use dynaslice_data::input_spec::InputSpec;
 use dynaslice_data::nifti::{read_geometry, read_labelled_volume_with, HeaderSpacing};
-use dynaslice_data::input::time_unit_of;
 use dynaslice_data::{ErrorKind, TimeUnit};
 use dynaslice_test_support::python::run_python;
 

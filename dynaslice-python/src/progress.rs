@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 const POLL: Duration = Duration::from_millis(50);
 
 /// How often the index's progress is printed while it is built.
-const INDEXING_LINES: Duration = Duration::from_secs(5);
+const INDEXING_LINES: Duration = Duration::from_secs(4);
 
 /// The run as Python sees it: the `progress` callback and Ctrl-C, polled at most every
 /// [`POLL`] (the last poll's time); why training stopped early (Ctrl-C or the callback's
