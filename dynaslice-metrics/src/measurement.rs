@@ -325,3 +325,29 @@ impl Measurement {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynaslice_core::ModelBytes;
+    use dynaslice_test_support::spheres::{writer_in, Sphere, SPHERES_DOMAIN};
+
+    /// The time axis names the unit the run record holds, and no unit where it holds none
+    /// (whatever the patient frame).
+    #[test]
+    fn the_time_axis_names_the_recorded_unit() {
+        for (metadata, axis) in [
+            ("space = RAS\ntime_unit = ms\n", "time (ms)"),
+            ("space = LPS\ntime_unit = manifest\n", "time (manifest)"),
+            ("space = RAS\n", "time"),
+        ] {
+            let ball = Sphere::new([0.0; 3], 0.3, 0.1);
+            let mut writer = writer_in(SPHERES_DOMAIN, &[ball], &[("ball", 1)]);
+            writer.metadata = metadata.into();
+            let bytes = ModelBytes::copy_from(&writer.to_bytes());
+            let file = ModelFile::from_bytes(bytes, Path::new("m.dsm")).unwrap();
+            let m = Measurement::of_file(&file, &[0.5], 8, || {}).unwrap();
+            assert_eq!(m.time_axis(), axis, "{metadata}");
+        }
+    }
+}
