@@ -29,8 +29,9 @@ pub struct InputArgs {
     /// same times (e.g. a short-axis stack and long-axis views).
     #[arg(required = true, value_name = "INPUT")]
     pub inputs: Vec<PathBuf>,
-    /// Frames to use, A:B:STEP (Python slice; e.g. 0:37:4 = every 4th of 37) [default: 0:, or
-    /// as the model was trained where a command takes a model]
+    /// Frames to use, A:B:STEP (Python slice; e.g. 0:37:4 = every 4th of 37; an end past the
+    /// last frame is cut there, with a warning) [default: 0:, or as the model was trained where
+    /// a command takes a model]
     #[arg(long, value_name = "A:B:STEP")]
     pub frames: Option<FrameRange>,
     /// Label-name table ("<label> <name>" per line) for inputs that carry label numbers only.

@@ -9,6 +9,7 @@ use super::times::times_option;
 use anyhow::{Context, Result};
 use dynaslice_data::color_table::table_paths;
 use dynaslice_data::TimeSeries;
+use dynaslice_mesh::lattice::{DEFAULT_RESOLUTION, MIN_RESOLUTION};
 use dynaslice_metrics::itv::{itv_bytes, itv_files, itv_grid, write_itv};
 use dynaslice_metrics::measurement::{times_of, Measurement};
 use dynaslice_model::ModelFile;
@@ -44,7 +45,7 @@ pub struct Args {
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Meshing lattice cells along the longest axis of the model's domain.
-    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = DEFAULT_RESOLUTION, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     resolution: u32,
     /// Output CSV (.csv): one row per time and class.
     #[arg(short, long, value_name = "TABLE.csv")]

@@ -14,7 +14,7 @@ use super::times::{model_times, times_option};
 use anyhow::{anyhow, Result};
 use dynaslice_data::TimeSeries;
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
-use dynaslice_mesh::lattice::MIN_RESOLUTION;
+use dynaslice_mesh::lattice::{DEFAULT_RESOLUTION, MIN_RESOLUTION};
 use dynaslice_mesh::model_meshes::planned_paths;
 use dynaslice_mesh::{self as mesh, Options, DEFAULT_SAFETY};
 use dynaslice_model::ModelFile;
@@ -55,7 +55,7 @@ pub struct Args {
     #[arg(long = "class", value_name = "K")]
     classes: Vec<String>,
     /// Lattice cells along the longest axis of the model's bounds.
-    #[arg(long, default_value_t = 128, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = DEFAULT_RESOLUTION, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     resolution: u32,
     /// Output: a .ply, .obj, .stl or .vtp file with --time, a directory with --times.
     #[arg(short, long, value_name = "OUT")]

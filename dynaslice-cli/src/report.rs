@@ -11,6 +11,7 @@ use super::progress::Progress;
 use super::times::times_option;
 use anyhow::{Context, Result};
 use dynaslice_data::TimeSeries;
+use dynaslice_mesh::lattice::{DEFAULT_RESOLUTION, MIN_RESOLUTION};
 use dynaslice_metrics::measurement::times_of;
 use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
@@ -51,7 +52,7 @@ pub struct Args {
     times: Option<TimeSeries>,
     /// Meshing lattice cells along the longest axis of the model's domain (measurements and
     /// the 3D picture).
-    #[arg(long, default_value_t = 128, value_parser = count(1, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = DEFAULT_RESOLUTION, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     resolution: u32,
     /// Replace an existing page (a symbolic link there is replaced, its target left alone).
     #[arg(long)]

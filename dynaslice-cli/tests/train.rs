@@ -114,6 +114,20 @@ fn bad_inputs_are_named() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("no frame"), "{err}");
+    // A range past the last of the 3 frames is cut there, as a Python slice is, and said.
+    let out = train_command(
+        &input,
+        &dir.path().join("m.dsm"),
+        &["--frames", "0:9", "--steps", "1"],
+    )
+    .output()
+    .unwrap();
+    succeeded(&out);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("frames 0:9:1: the input has 3 frames, so the range ends at frame 2 (not 8)"),
+        "{err}"
+    );
 }
 
 /// Per-class weights are checked against the data's classes and recorded in the model.

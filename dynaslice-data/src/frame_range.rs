@@ -30,8 +30,18 @@ impl FrameRange {
         step: 1,
     };
 
-    /// The selected indices among `count` frames.
+    /// The selected indices among `count` frames. A range whose end lies past the last frame
+    /// is cut there, as a Python slice is, with a warning: the user may have counted the
+    /// frames wrong.
     pub fn indices(&self, count: usize) -> Vec<usize> {
+        if let Some(end) = self.end.filter(|&e| e > count) {
+            log::warn!(
+                "frames {self}: the input has {count} frames, so the range ends at frame {} \
+                 (not {})",
+                count.saturating_sub(1),
+                end - 1
+            );
+        }
         let end = self.end.unwrap_or(count).min(count);
         (self.start..end).step_by(self.step).collect()
     }

@@ -57,7 +57,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            resolution: 128,
+            resolution: lattice::DEFAULT_RESOLUTION,
             sampling: Sampling::Sparse {
                 safety: DEFAULT_SAFETY,
             },

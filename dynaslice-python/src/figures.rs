@@ -50,7 +50,7 @@ fn measured_at(file: &ModelFile, times: Option<&str>, resolution: u32) -> PyResu
 /// The figures of `dynaslice measure MODEL --json` as its JSON text: per class and time the
 /// volume, centroid and box in the input's units and patient frame; per class the cycle.
 #[pyfunction]
-#[pyo3(signature = (model, times = None, resolution = 128))]
+#[pyo3(signature = (model, times = None, resolution = dynaslice_mesh::lattice::DEFAULT_RESOLUTION))]
 pub fn measure_json(
     py: Python<'_>,
     model: &PyModel,
@@ -68,7 +68,7 @@ pub fn measure_json(
 /// beside the model file where there is one; with `inputs`, read as the model was trained on
 /// them, the plane view). Refuses to replace an existing page unless `force`.
 #[pyfunction]
-#[pyo3(signature = (model, output, inputs = Vec::new(), times = None, resolution = 128, force = false))]
+#[pyo3(signature = (model, output, inputs = Vec::new(), times = None, resolution = dynaslice_mesh::lattice::DEFAULT_RESOLUTION, force = false))]
 pub fn report(
     py: Python<'_>,
     model: &PyModel,

@@ -141,6 +141,11 @@ fn _dynaslice(m: &Bound<'_, PyModule>) -> PyResult<()> {
     }
     m.add("DynasliceError", m.py().get_type::<DynasliceError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // The one default of `dynaslice mesh`, `measure` and `report --resolution`.
+    m.add(
+        "DEFAULT_RESOLUTION",
+        dynaslice_mesh::lattice::DEFAULT_RESOLUTION,
+    )?;
     m.add_class::<model::PyModel>()?;
     m.add_function(wrap_pyfunction!(train::train, m)?)?;
     m.add_function(wrap_pyfunction!(figures::description, m)?)?;

@@ -327,7 +327,7 @@ impl PyModel {
     /// Surfaces at world time `t`: for each requested class (keys: numbers 1..K or names;
     /// empty: all), (positions (V, 3) float32, triangles (F, 3) int64, normals (V, 3) float32,
     /// normal velocity (V,) float32), as `dynaslice mesh` extracts them.
-    #[pyo3(signature = (t, classes, resolution = 128, non_overlapping = false, newton_steps = mesh::DEFAULT_NEWTON_STEPS,
+    #[pyo3(signature = (t, classes, resolution = dynaslice_mesh::lattice::DEFAULT_RESOLUTION, non_overlapping = false, newton_steps = mesh::DEFAULT_NEWTON_STEPS,
                         safety = mesh::DEFAULT_SAFETY, dense = false, threads = None))]
     #[allow(clippy::too_many_arguments, clippy::type_complexity)]
     fn mesh<'py>(

@@ -7,7 +7,7 @@ use crate::options::{count, MAX_CHAMFER_SAMPLES, MAX_IOU_RESOLUTION, MAX_MESH_RE
 use crate::progress::Progress;
 use anyhow::{bail, Context, Result};
 use dynaslice_data::frame_range::FrameRange;
-use dynaslice_mesh::lattice::MIN_RESOLUTION;
+use dynaslice_mesh::lattice::{DEFAULT_RESOLUTION, MIN_RESOLUTION};
 use dynaslice_metrics::benchmark::{Resolution, Scores, Truth};
 use dynaslice_metrics::chamfer::DEFAULT_SAMPLES;
 use dynaslice_metrics::Frames;
@@ -31,7 +31,7 @@ pub(super) struct SyntheticArgs {
     #[arg(long, default_value_t = 64, value_parser = count(1, MAX_IOU_RESOLUTION))]
     resolution: usize,
     /// Lattice cells per axis for the model's meshes.
-    #[arg(long, default_value_t = 128, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = DEFAULT_RESOLUTION, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     mesh_resolution: u32,
     /// Lattice cells per axis for the exact shapes' meshes.
     #[arg(long, default_value_t = 256, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]

@@ -5,7 +5,7 @@ use crate::options::{count, finite_f32, MAX_CHAMFER_SAMPLES, MAX_MESH_RESOLUTION
 use crate::times::model_times;
 use anyhow::{bail, Result};
 use dynaslice_core::format::MAX_CLASSES;
-use dynaslice_mesh::lattice::MIN_RESOLUTION;
+use dynaslice_mesh::lattice::{DEFAULT_RESOLUTION, MIN_RESOLUTION};
 use dynaslice_metrics::chamfer::{self, ReferenceScore, DEFAULT_SAMPLES};
 use dynaslice_model::ModelFile;
 use std::path::PathBuf;
@@ -23,7 +23,7 @@ pub(super) struct ReferenceArgs {
     #[arg(long, default_value_t = 1, value_parser = count(1, MAX_CLASSES))]
     class: usize,
     /// Lattice cells along the longest axis of the model's domain.
-    #[arg(long, default_value_t = 128, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = DEFAULT_RESOLUTION, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     mesh_resolution: u32,
     /// Area-uniform samples per surface.
     #[arg(long, default_value_t = DEFAULT_SAMPLES, value_parser = count(1, MAX_CHAMFER_SAMPLES))]

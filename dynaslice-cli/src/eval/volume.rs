@@ -7,7 +7,7 @@ use crate::times::{model_times, times_option};
 use anyhow::Result;
 use dynaslice_data::TimeSeries;
 use dynaslice_figures::plot::volume_chart;
-use dynaslice_mesh::lattice::MIN_RESOLUTION;
+use dynaslice_mesh::lattice::{DEFAULT_RESOLUTION, MIN_RESOLUTION};
 use dynaslice_metrics::volume::{class_volumes, default_times};
 use dynaslice_model::ModelFile;
 use dynaslice_output::write_via;
@@ -25,7 +25,7 @@ pub(super) struct VolumeArgs {
           value_parser = time_series(MAX_TIMES))]
     times: Option<TimeSeries>,
     /// Lattice cells along the longest axis of the model's domain.
-    #[arg(long, default_value_t = 128, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
+    #[arg(long, default_value_t = DEFAULT_RESOLUTION, value_parser = count(MIN_RESOLUTION, MAX_MESH_RESOLUTION))]
     resolution: u32,
     /// Output CSV (.csv); the chart is written beside it as .png.
     #[arg(short, long)]

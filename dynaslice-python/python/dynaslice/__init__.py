@@ -256,7 +256,7 @@ class Model:
         self,
         t: float,
         cls: Union[None, int, str, Sequence[Union[int, str]]] = None,
-        resolution: int = 128,
+        resolution: int = _dynaslice.DEFAULT_RESOLUTION,
         *,
         non_overlapping: bool = False,
         newton_steps: int = 1,
@@ -349,7 +349,7 @@ class Model:
         return list(_dynaslice.description(self._m))
 
     def measure(self, times: Union[None, str, float, Sequence[float]] = None,
-                resolution: int = 128) -> dict:
+                resolution: int = _dynaslice.DEFAULT_RESOLUTION) -> dict:
         """The figures of ``dynaslice measure --json``, as a dict: per class and time the
         volume (mL for a model of millimetres), centroid and box in the input's patient frame;
         per class the smallest and largest volume, the volume change and the centroid's
@@ -359,7 +359,7 @@ class Model:
         return json.loads(_dynaslice.measure_json(self._m, _time_text(times), resolution))
 
     def report(self, output: PathLike, inputs: Sequence[PathLike] = (), *,
-               times: Union[None, str, float, Sequence[float]] = None, resolution: int = 128,
+               times: Union[None, str, float, Sequence[float]] = None, resolution: int = _dynaslice.DEFAULT_RESOLUTION,
                force: bool = False) -> None:
         """Writes the page ``dynaslice report`` writes (one self-contained HTML file): the
         input, the training (with the loss curve logged beside the model file), the classes,

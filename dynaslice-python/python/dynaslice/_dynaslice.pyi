@@ -7,6 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
+DEFAULT_RESOLUTION: int
 
 class DynasliceError(Exception):
     """A DynaSlice operation failed; the message is the command line's."""
@@ -48,7 +49,7 @@ class Model:
         self,
         t: float,
         classes: Sequence[str],
-        resolution: int = 128,
+        resolution: int = ...,
         non_overlapping: bool = False,
         newton_steps: int = 1,
         safety: float = 1.5,
@@ -91,13 +92,13 @@ def train(
     **options: Any,
 ) -> Model: ...
 def description(model: Model) -> List[str]: ...
-def measure_json(model: Model, times: Optional[str] = None, resolution: int = 128) -> str: ...
+def measure_json(model: Model, times: Optional[str] = None, resolution: int = ...) -> str: ...
 def report(
     model: Model,
     output: _Path,
     inputs: Sequence[_Path] = ...,
     times: Optional[str] = None,
-    resolution: int = 128,
+    resolution: int = ...,
     force: bool = False,
 ) -> None: ...
 def kernel_name() -> str: ...
