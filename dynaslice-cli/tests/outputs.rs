@@ -311,111 +311,53 @@ fn a_forced_smaller_multi_file_output_leaves_none_of_the_earlier_files() {
     let one = home.path().join("liver.dsm");
     let liver = Sphere::new([0.1, 0.0, 0.0], 0.3, 0.1);
     std::fs::write(&one, spheres::model(&[liver], &[("liver", 1)])).unwrap();
-    let arg = |p: &Path| p.to_str().unwrap().to_string();
-    // (what, the larger run, the smaller run), `{D}` standing for the folder.
-    let runs: [(&str, Vec<String>, Vec<String>); 3] = [
+    let (two, one) = (two.to_str().unwrap(), one.to_str().unwrap());
+    // (what, its arguments with `{X}` standing for what differs and `{D}` for the folder, the
+    // larger run's X, the smaller run's X).
+    let runs = [
         (
             "mesh series",
-            [
-                "mesh",
-                &arg(&two),
-                "--times",
-                "0:0.8:3",
-                "--resolution",
-                "8",
-                "-o",
-                "{D}/s",
-            ]
-            .map(String::from)
-            .to_vec(),
-            [
-                "mesh",
-                &arg(&two),
-                "--times",
-                "0:0.8:2",
-                "--resolution",
-                "8",
-                "-o",
-                "{D}/s",
-            ]
-            .map(String::from)
-            .to_vec(),
+            "mesh {M} --times {X} --resolution 8 -o {D}/s",
+            "0:0.8:3",
+            "0:0.8:2",
         ),
         (
             "labels .seg.nrrd frames",
-            [
-                "labels",
-                &arg(&two),
-                "--times",
-                "0:0.8:3",
-                "--spacing",
-                "8",
-                "-o",
-                "{D}/s/l.seg.nrrd",
-            ]
-            .map(String::from)
-            .to_vec(),
-            [
-                "labels",
-                &arg(&two),
-                "--times",
-                "0:0.8:2",
-                "--spacing",
-                "8",
-                "-o",
-                "{D}/s/l.seg.nrrd",
-            ]
-            .map(String::from)
-            .to_vec(),
+            "labels {M} --times {X} --spacing 8 -o {D}/s/l.seg.nrrd",
+            "0:0.8:3",
+            "0:0.8:2",
         ),
         (
             "measure --itv",
-            [
-                "measure",
-                &arg(&two),
-                "--times",
-                "0:0.8:2",
-                "--resolution",
-                "8",
-                "--itv",
-                "{D}/s",
-            ]
-            .map(String::from)
-            .to_vec(),
-            [
-                "measure",
-                &arg(&one),
-                "--times",
-                "0:0.8:2",
-                "--resolution",
-                "8",
-                "--itv",
-                "{D}/s",
-            ]
-            .map(String::from)
-            .to_vec(),
+            "measure {X} --times 0:0.8:2 --resolution 8 --itv {D}/s",
+            two,
+            one,
         ),
     ];
-    let in_dir = |argv: &[String], dir: &Path| -> Vec<String> {
-        argv.iter()
-            .map(|a| a.replace("{D}", dir.to_str().unwrap()))
+    let argv = |line: &str, x: &str, dir: &Path| -> Vec<String> {
+        line.split(' ')
+            .map(|a| {
+                a.replace("{M}", two)
+                    .replace("{X}", x)
+                    .replace("{D}", dir.to_str().unwrap())
+            })
             .collect()
     };
-    for (what, larger, smaller) in &runs {
+    for (what, line, larger, smaller) in runs {
         // The folder exists (labels writes into an existing one; the others make it).
         let fresh = tempfile::tempdir().unwrap();
         std::fs::create_dir(fresh.path().join("s")).unwrap();
-        succeeded(&dynaslice(&in_dir(smaller, fresh.path())));
+        succeeded(&dynaslice(&argv(line, smaller, fresh.path())));
         let mut want = file_names(fresh.path());
         want.push(PathBuf::from("s/notes.txt"));
         want.sort();
 
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir(dir.path().join("s")).unwrap();
-        succeeded(&dynaslice(&in_dir(larger, dir.path())));
+        succeeded(&dynaslice(&argv(line, larger, dir.path())));
         let before = file_names(dir.path()).len();
         std::fs::write(dir.path().join("s/notes.txt"), b"mine").unwrap();
-        let mut forced = in_dir(smaller, dir.path());
+        let mut forced = argv(line, smaller, dir.path());
         forced.push("--force".into());
         succeeded(&dynaslice(&forced));
         assert_eq!(

@@ -204,8 +204,8 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
     );
     // Without --times: the times of the training manifest the model records.
     let out = dir.path().join("rs");
-    succeeded(
-        &dynaslice()
+    let rtstruct = |more: &[&str]| {
+        dynaslice()
             .current_dir(dir.path())
             .args([
                 "rtstruct",
@@ -214,11 +214,14 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
                 "RS_p00.dcm",
                 "--ct",
                 "ct",
+                "-o",
+                "rs",
             ])
-            .args(["-o", "rs", "--itv"])
+            .args(more)
             .output()
-            .unwrap(),
-    );
+            .unwrap()
+    };
+    succeeded(&rtstruct(&["--itv"]));
     let manifest = std::fs::read_to_string(out.join("rtstruct.seq")).unwrap();
     let entries: Vec<(f64, String)> = manifest
         .lines()
@@ -321,21 +324,7 @@ fn phases_go_back_as_rt_structure_sets_on_the_ct_with_the_model_s_labels() {
     // Written again over the set with fewer times (--force), the folder holds the new set
     // only: no RS file of the earlier, longer set is left beside it; the user's file stays.
     std::fs::write(out.join("notes.txt"), b"mine").unwrap();
-    succeeded(
-        &dynaslice()
-            .current_dir(dir.path())
-            .args([
-                "rtstruct",
-                "lungs.dsm",
-                "--like",
-                "RS_p00.dcm",
-                "--ct",
-                "ct",
-            ])
-            .args(["--times", "0:50:2", "-o", "rs", "--force"])
-            .output()
-            .unwrap(),
-    );
+    succeeded(&rtstruct(&["--times", "0:50:2", "--force"]));
     let mut names: Vec<String> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
