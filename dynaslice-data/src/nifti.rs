@@ -257,11 +257,7 @@ pub fn read_geometry(path: &Path) -> Result<Geometry> {
         gz,
         capacity,
     } = Source::open(path)?;
-    let header = NiftiHeader::from_reader(&mut source).map_err(|e| {
-        at(ErrorKind::Nifti(format!(
-            "unreadable or truncated header: {e}"
-        )))
-    })?;
+    let header = read_header(&mut source, path)?;
     let (dims, frames) = dimensions(&header).map_err(at)?;
     let affine = affine_as(&header, HeaderSpacing::Auto, path).map_err(at)?;
     // A header promising more voxels than the file can hold is refused here, before a caller
@@ -309,17 +305,22 @@ fn time_origin(h: &NiftiHeader) -> std::result::Result<f64, ErrorKind> {
 /// states none (or a code that is no time unit, such as Hz).
 pub fn read_time_unit(path: &Path) -> Result<TimeUnit> {
     let Source { mut source, .. } = Source::open(path)?;
-    let header = NiftiHeader::from_reader(&mut source).map_err(|e| {
-        DataError::new(ErrorKind::Nifti(format!(
-            "unreadable or truncated header: {e}"
-        )))
-        .in_file(path)
-    })?;
+    let header = read_header(&mut source, path)?;
     Ok(match header.xyzt_to_time() {
         Ok(Unit::Sec) => TimeUnit::Seconds,
         Ok(Unit::Msec) => TimeUnit::Milliseconds,
         Ok(Unit::Usec) => TimeUnit::Microseconds,
         _ => TimeUnit::Plain,
+    })
+}
+
+/// The header at the start of `source` (the file at `path`, named in the error).
+fn read_header(source: &mut impl Read, path: &Path) -> Result<NiftiHeader> {
+    NiftiHeader::from_reader(source).map_err(|e| {
+        DataError::new(ErrorKind::Nifti(format!(
+            "unreadable or truncated header: {e}"
+        )))
+        .in_file(path)
     })
 }
 

@@ -13,7 +13,7 @@ use dynaslice_data::color_table::{stage_tables, table_paths};
 use dynaslice_data::nifti_stream::{NiftiStream, VolumeHeader};
 use dynaslice_data::ClassInfo;
 use dynaslice_mesh::field::LevelScratch;
-use dynaslice_mesh::io::{self as mesh_io, class_tag, Format, MeshInfo, Space};
+use dynaslice_mesh::io::{self as mesh_io, class_tag, is_class_tag, Format, MeshInfo, Space};
 use dynaslice_mesh::{self as mesh, LevelSets, Mesh, Sampling, Source, Surfaces};
 use dynaslice_output::OutputSet;
 use dynaslice_volume::{label_indices, VoxelGrid};
@@ -48,19 +48,10 @@ pub fn itv_files(dir: &Path, classes: &[ClassInfo]) -> Vec<ItvFiles> {
 
 /// Whether `name` is one of [`itv_files`]' names (any class) or their colour tables.
 fn is_itv_file(name: &str) -> bool {
-    let Some(tag) = [".itv.nii.gz", ".itv.ply", ".itv.ctbl", ".itv.label.txt"]
+    [".itv.nii.gz", ".itv.ply", ".itv.ctbl", ".itv.label.txt"]
         .iter()
         .find_map(|ext| name.strip_suffix(ext))
-    else {
-        return false;
-    };
-    let Some(rest) = tag.strip_prefix("class") else {
-        return false;
-    };
-    let (k, slug) = rest.split_once('_').unwrap_or((rest, ""));
-    !k.is_empty()
-        && k.bytes().all(|b| b.is_ascii_digit())
-        && slug.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-')
+        .is_some_and(is_class_tag)
 }
 
 /// The ITV masks' grid over `model`'s domain at `time`: `spacing` (given with `option`;

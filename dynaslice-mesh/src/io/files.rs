@@ -45,12 +45,19 @@ fn is_series_file(name: &str) -> bool {
     let Some((tag, index)) = stem.rsplit_once("_t") else {
         return false;
     };
+    ["ply", "obj", "stl", "vtp"].contains(&ext) && digits(index) && is_class_tag(tag)
+}
+
+/// Whether `tag` is one of [`class_tag`]'s tags (`classK` or `classK_slug`), for telling a set's
+/// files from others.
+pub fn is_class_tag(tag: &str) -> bool {
     let Some(rest) = tag.strip_prefix("class") else {
         return false;
     };
     let (k, slug) = rest.split_once('_').unwrap_or((rest, ""));
-    let slug_ok = slug.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-');
-    ["ply", "obj", "stl", "vtp"].contains(&ext) && digits(index) && digits(k) && slug_ok
+    !k.is_empty()
+        && k.bytes().all(|b| b.is_ascii_digit())
+        && slug.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-')
 }
 
 /// The mesh files of one run, and the collection entries of those written so far.

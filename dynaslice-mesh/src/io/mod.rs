@@ -25,7 +25,7 @@ mod vtp;
 /// The frame mesh vertices are written in (re-exported: meshes, label maps and the model's
 /// record of its input share it).
 pub use dynaslice_sequence::Space;
-pub use files::{class_tag, MeshFiles};
+pub use files::{class_tag, is_class_tag, MeshFiles};
 pub use stl::read_stl;
 
 use super::Mesh;
