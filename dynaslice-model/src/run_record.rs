@@ -99,6 +99,10 @@ pub struct RunRecord {
     pub offset: Option<f32>,
     /// `omega_t_max`: ω_t^max in normalised time (Eq. 4); `inf` where temporal control was off.
     pub omega_t_max: Option<f32>,
+    /// `plane_band`: the bound on the first layer's |⟨ω_x, n⟩| across the data's parallel
+    /// planes, in normalised units (c·π/Δs); absent where the planes were not all parallel or
+    /// the band was switched off (and in models trained before it existed).
+    pub plane_band: Option<f32>,
     /// `lr`: the initial and final learning rates (`0.001 -> 0.00001`).
     pub lr: Option<(f32, f32)>,
     /// `warmup_steps`: steps of the learning-rate ramp.
@@ -410,6 +414,7 @@ fields! {
     omega_0 = "omega_0",
     offset = "offset",
     omega_t_max = "omega_t_max",
+    plane_band = "plane_band",
     lr = "lr",
     warmup_steps = "warmup_steps",
     lambda_orientation = "lambda_orientation",

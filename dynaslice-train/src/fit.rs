@@ -12,9 +12,10 @@
 use crate::data_sampler::{domain_for, DataSampler};
 use crate::journal::{self, Journal, LossRow};
 use crate::model_file::{check_model_limits, TrainedModel};
+use crate::spatial_bound::plane_band;
 use crate::spec::{SpecError, TrainSpec, MAX_STEPS};
 use crate::temporal_bound::temporal_bound;
-use crate::trainer::{self, Progress};
+use crate::trainer::{self, Progress, TrainOptions};
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::ModelBytes;
 use dynaslice_model::RunRecord;
@@ -241,11 +242,15 @@ pub(crate) fn fit_checked(
         spec.temporal_factor(),
         !spec.no_temporal_control,
     );
-    let options = spec.options(omega_t_max, files.map(|f| f.checkpoint.clone()));
+    let plane_band = plane_band(seq, &domain, spec.temporal_factor(), !spec.no_plane_band);
+    let options = TrainOptions {
+        plane_band,
+        ..spec.options(omega_t_max, files.map(|f| f.checkpoint.clone()))
+    };
     let counts = spec.counts();
     observer.note(&format!(
         "{}: {} classes, {} frames, {} planes; domain centre {:?}, half-width {:.4}, time {}..{}; \
-         ω_t^max {omega_t_max}; ω₀ {}; building the sampling index (the exact in-plane \
+         ω_t^max {omega_t_max}; {}; ω₀ {}; building the sampling index (the exact in-plane \
          distances)",
         input.description,
         classes.len(),
@@ -255,6 +260,13 @@ pub(crate) fn fit_checked(
         domain.scale[0],
         domain.time_origin,
         domain.time_origin + domain.time_span,
+        match &options.plane_band {
+            Some(b) => format!(
+                "|⟨ω_x, n⟩| ≤ {} across the parallel planes (n {:?})",
+                b.max, b.normal
+            ),
+            None => "planes not all parallel: ω_x unbounded".into(),
+        },
         options.omega_0,
     ));
     let mut sampler =

@@ -325,6 +325,11 @@ pub const NO_TEMPORAL_CONTROL: Flag = switch(
     "no_temporal_control",
     "Ablation: no temporal band limit (ω_t unclamped, initialised like ω_x)",
 );
+/// `no_plane_band`.
+pub const NO_PLANE_BAND: Flag = switch(
+    "no_plane_band",
+    "Ablation: no band limit across parallel planes (ω_x unbounded along their normal)",
+);
 /// `no_orientation`.
 pub const NO_ORIENTATION: Flag =
     switch("no_orientation", "Ablation: no orientation loss (λ_n = 0)");
@@ -517,7 +522,7 @@ pub const SAMPLE_COUNTS: [&Flag; 5] = [
 ];
 
 /// Every training option, in the help's order.
-pub const FLAGS: [&Flag; 25] = [
+pub const FLAGS: [&Flag; 26] = [
     &STEPS,
     &MINUTES,
     &SEED,
@@ -525,6 +530,7 @@ pub const FLAGS: [&Flag; 25] = [
     &RESUME,
     &FORCE,
     &NO_TEMPORAL_CONTROL,
+    &NO_PLANE_BAND,
     &NO_ORIENTATION,
     &WIDTHS,
     &OMEGA0,

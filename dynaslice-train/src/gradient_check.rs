@@ -286,6 +286,7 @@ fn orientation_kink_within_the_step() {
         layout: Layout::new(&[9, 7], 1).unwrap(),
         params: KINK_CASE_PARAMS.to_vec(),
         omega_t_max: 27.061483,
+        plane_band: None,
     };
     let batch = Batch {
         contour_x: vec![[-0.52670485, 0.3072418, -0.45405558, 0.07004865]],

@@ -39,6 +39,7 @@ pub mod reverse_over_reverse;
 pub mod sampling;
 pub mod schedule_plan;
 mod simd;
+pub mod spatial_bound;
 pub mod spec;
 pub mod temporal_bound;
 pub mod trainer;

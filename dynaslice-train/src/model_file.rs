@@ -88,6 +88,7 @@ impl TrainedModel<'_> {
             omega_0: Some(o.omega_0),
             offset: Some(o.offset),
             omega_t_max: Some(o.omega_t_max),
+            plane_band: o.plane_band.map(|b| b.max),
             lr: Some((o.lr, o.lr_final)),
             warmup_steps: Some(o.warmup_steps),
             lambda_orientation: Some(l.orientation),

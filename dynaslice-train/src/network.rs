@@ -4,6 +4,7 @@
 //! so exporting a model is a copy, and the trainer's f and ∇ₓf can be checked against the
 //! core's evaluation of the exported file.
 
+use crate::spatial_bound::{self, PlaneBand};
 use crate::temporal_bound;
 use dynaslice_core::format::{ModelWriter, WeightType};
 use dynaslice_core::{Domain, Layout};
@@ -15,7 +16,7 @@ use rand_pcg::Pcg64Mcg;
 /// lab/notes/2026-12-04-omega.md).
 pub const OMEGA_0: f32 = 30.0;
 
-/// Layout, parameters and the temporal band limit of a network being trained.
+/// Layout, parameters and the band limits of a network being trained.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Network {
     /// Dimensions (validated by the core).
@@ -24,6 +25,8 @@ pub struct Network {
     pub params: Vec<f32>,
     /// ω_t^max of Eq. 4 in normalised time; `f32::INFINITY` disables temporal control.
     pub omega_t_max: f32,
+    /// The bound on ω_x across the data's parallel planes (`spatial_bound`), if they are.
+    pub plane_band: Option<PlaneBand>,
 }
 
 impl Network {
@@ -77,9 +80,18 @@ impl Network {
             layout,
             params,
             omega_t_max,
+            plane_band: None,
         };
-        net.clamp_temporal_frequencies();
+        net.project_band_limits();
         net
+    }
+
+    /// This network with ω_x bounded across parallel planes (`band`), projected into it at
+    /// once and after every optimiser step.
+    pub fn with_plane_band(mut self, band: Option<PlaneBand>) -> Network {
+        self.plane_band = band;
+        self.project_band_limits();
+        self
     }
 
     /// The ω_t row of the first layer's Wᵀ (Eq. 2).
@@ -95,10 +107,17 @@ impl Network {
             .fold(0.0f32, |m, v| m.max(v.abs()))
     }
 
-    /// Projects ω_t back into [−ω_t^max, ω_t^max] (Eq. 4); called after every optimiser step.
-    pub fn clamp_temporal_frequencies(&mut self) {
+    /// Projects ω_t back into [−ω_t^max, ω_t^max] (Eq. 4) and ω_x into the plane band, if any;
+    /// called after every optimiser step.
+    pub fn project_band_limits(&mut self) {
         let range = self.omega_t_range();
         temporal_bound::project(&mut self.params[range], self.omega_t_max);
+        if let Some(band) = &self.plane_band {
+            let width = self.layout.layer_dims(0).1;
+            let (x, rest) = self.params[..3 * width].split_at_mut(width);
+            let (y, z) = rest.split_at_mut(width);
+            spatial_bound::project([x, y, z], band);
+        }
     }
 
     /// The model file contents for this network.

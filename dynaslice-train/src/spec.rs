@@ -37,6 +37,8 @@ pub struct TrainSpec {
     pub threads: Option<usize>,
     /// Ablation: no temporal band limit (ω_t unclamped, initialised like ω_x).
     pub no_temporal_control: bool,
+    /// Ablation: no band limit across parallel planes ([`crate::spatial_bound`]).
+    pub no_plane_band: bool,
     /// Ablation: no orientation loss (λ_n = 0).
     pub no_orientation: bool,
     /// Widths of the sine layers (default 4 × 256).
@@ -193,6 +195,8 @@ impl TrainSpec {
             warmup_steps: self.warmup_steps.unwrap_or(d.warmup_steps),
             loss: self.loss(),
             omega_t_max,
+            // From the data's planes: set by `fit` (`spatial_bound::plane_band`).
+            plane_band: None,
             checkpoint,
             checkpoint_every: Duration::from_secs_f64(
                 self.checkpoint_minutes
@@ -239,6 +243,7 @@ impl TrainSpec {
             "resume" => self.resume = switch(&value).ok_or_else(wrong)?,
             "force" => self.force = switch(&value).ok_or_else(wrong)?,
             "no_temporal_control" => self.no_temporal_control = switch(&value).ok_or_else(wrong)?,
+            "no_plane_band" => self.no_plane_band = switch(&value).ok_or_else(wrong)?,
             "no_orientation" => self.no_orientation = switch(&value).ok_or_else(wrong)?,
             "widths" => match &value {
                 Value::Wholes(w) => {
@@ -351,6 +356,7 @@ impl Default for TrainOptions {
                 alpha: real(&ALPHA),
             },
             omega_t_max: f32::INFINITY,
+            plane_band: None,
             checkpoint: None,
             checkpoint_every: Duration::from_secs_f64(CHECKPOINT_MINUTES.default.real() * 60.0),
             resume: false,

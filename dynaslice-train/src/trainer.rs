@@ -11,6 +11,7 @@ use super::network::Network;
 use super::objective::{Batch, Objective};
 use super::sampling::Sampler;
 use super::schedule_plan::{SchedulePlan, CALIBRATION_STEPS};
+use super::spatial_bound::PlaneBand;
 use anyhow::{Context, Result};
 use dynaslice_core::Layout;
 use std::ops::ControlFlow;
@@ -54,6 +55,9 @@ pub struct TrainOptions {
     pub loss: LossWeights,
     /// ω_t^max in normalised time (Eq. 4); `f32::INFINITY` turns temporal control off.
     pub omega_t_max: f32,
+    /// The bound on ω_x across the data's parallel planes, where they are
+    /// ([`crate::spatial_bound`]).
+    pub plane_band: Option<PlaneBand>,
     /// Where to keep the checkpoint (none: no checkpoints).
     pub checkpoint: Option<PathBuf>,
     /// Wall time between checkpoints.
@@ -187,6 +191,11 @@ fn fingerprint(o: &TrainOptions, num_classes: usize, data: u64) -> u64 {
         o.warmup_steps,
         o.omega_t_max
     );
+    // Appended only where it binds, so a run without parallel planes keeps its fingerprint.
+    let text = match &o.plane_band {
+        Some(band) => format!("{text}|{band:?}"),
+        None => text,
+    };
     text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
         (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
     })
@@ -206,7 +215,8 @@ pub fn train(
         .num_threads(o.threads.max(1))
         .build()
         .context("thread pool")?;
-    let mut net = Network::siren(layout, o.omega_0, o.offset, o.omega_t_max, o.seed);
+    let mut net = Network::siren(layout, o.omega_0, o.offset, o.omega_t_max, o.seed)
+        .with_plane_band(o.plane_band);
     let mut adam = Adam::new(net.params.len(), AdamConfig::default());
     let print = fingerprint(o, num_classes, sampler.fingerprint());
     let mut step = 0;
@@ -255,7 +265,7 @@ pub fn train(
         let terms = pool.install(|| objective.evaluate(&net, &batch, &o.loss, &mut grad));
         let lr = schedule_rate(o, &current, step);
         adam.step(&mut net.params, &grad, lr);
-        net.clamp_temporal_frequencies();
+        net.project_band_limits();
         step += 1;
         let seconds = began.elapsed().as_secs_f64();
         recent.push(seconds, first_of_process);
@@ -424,6 +434,7 @@ mod tests {
                 alpha: 50.0,
             },
             omega_t_max: 10.0,
+            plane_band: None,
             checkpoint,
             checkpoint_every: Duration::from_secs(3600),
             resume: true,
