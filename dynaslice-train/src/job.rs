@@ -161,7 +161,7 @@ pub fn set(
             spec.set(flag.name, value)
                 .map_err(|e| SetError::Invalid(format!("{}: {}", e.option, e.message)))
         }
-        None if InputSpec::KEYS.contains(&key.replace('_', "-").as_str()) => input
+        None if dynaslice_data::input_flags::find(&key).is_some() => input
             .set(&key, text)
             .map_err(|e| SetError::Invalid(format!("{key} {text:?}: {e}"))),
         None => Err(SetError::Unknown),
