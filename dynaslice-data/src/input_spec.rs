@@ -9,7 +9,6 @@ use crate::input::{self, InputOptions};
 use crate::input_flags::{self, AppliesTo, INPUT_FLAGS};
 use crate::input_kind::InputKind;
 use crate::label_table::LabelTable;
-use crate::manifest;
 use crate::nesting::{self, NestingMode};
 use crate::nifti::HeaderSpacing;
 use crate::reslice::ResliceOptions;
@@ -93,8 +92,22 @@ impl InputSpec {
     /// Reads the inputs into one sequence, nested classes made disjoint as
     /// [`InputSpec::nesting`] says ([`nesting::apply`]).
     pub fn read(&self) -> Result<Sequence> {
-        self.check_options_apply()?;
-        let seq = input::read(&self.inputs, &self.options()?)?;
+        self.read_opened(&input::open(&self.inputs)?)
+    }
+
+    /// [`InputSpec::read`], with the frame and units of the inputs' coordinates
+    /// ([`input::space_of`]): each manifest among the inputs parsed once for the options'
+    /// check, the reading and the frame.
+    pub fn read_with_space(&self) -> Result<(Sequence, Space, Units)> {
+        let inputs = input::open(&self.inputs)?;
+        let seq = self.read_opened(&inputs)?;
+        let (space, units) = input::space_of(&inputs)?;
+        Ok((seq, space, units))
+    }
+
+    fn read_opened(&self, inputs: &[input::Opened]) -> Result<Sequence> {
+        self.check_options_apply(inputs)?;
+        let seq = input::read_opened(inputs, &self.options()?)?;
         nesting::apply(seq, &self.nesting.clone().unwrap_or_default())
             .map_err(|e| e.in_file(std::path::Path::new(&self.describe())))
     }
@@ -102,19 +115,17 @@ impl InputSpec {
     /// Refuses an option no input reads, as a user expects of a flag that would otherwise be
     /// silently ignored: the label-map options without a NIfTI or NRRD label map among the
     /// inputs (a manifest's entries counted), `roi-extent` without an RT Structure Set.
-    fn check_options_apply(&self) -> Result<()> {
+    fn check_options_apply(&self, inputs: &[input::Opened]) -> Result<()> {
         let mut kinds = Vec::new();
-        for path in &self.inputs {
-            match InputKind::of(path) {
-                // A manifest that cannot be read is reported by the reading itself.
-                Ok(InputKind::Manifest) => kinds.extend(
-                    manifest::read(path)
-                        .unwrap_or_default()
+        for input in inputs {
+            match input.kind {
+                InputKind::Manifest => kinds.extend(
+                    input
+                        .entries
                         .iter()
                         .filter_map(|e| InputKind::of(&e.path).ok()),
                 ),
-                Ok(kind) => kinds.push(kind),
-                Err(_) => {}
+                kind => kinds.push(kind),
             }
         }
         let has = |k: InputKind| kinds.contains(&k);
@@ -248,11 +259,6 @@ impl InputSpec {
             }
         }
         Ok(self)
-    }
-
-    /// The frame and units of the inputs' coordinates ([`input::space_of`]).
-    pub fn space(&self) -> Result<(Space, Units)> {
-        input::space_of(&self.inputs)
     }
 
     /// The unit of the inputs' times ([`input::time_unit_of`]).

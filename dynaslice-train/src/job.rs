@@ -231,8 +231,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Finished> {
         ));
     }
     observer.note(&format!("reading {}", input.describe()));
-    let seq = input.read()?;
-    let (space, units) = input.space()?;
+    let (seq, space, units) = input.read_with_space()?;
     let record = InputRecord {
         description: input.describe(),
         frames: input.frames().to_string(),
