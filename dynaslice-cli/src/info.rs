@@ -45,7 +45,7 @@ pub fn run(args: Args) -> Result<()> {
 /// error, a summary line on standard output.
 fn check_extents(args: &Args, file: &ModelFile) -> Result<()> {
     let model = file.model();
-    let seq = if args.input.inputs.is_empty() {
+    let seq = if args.input.given.inputs.is_empty() {
         None
     } else {
         Some(input::read_as_trained(&args.input, file)?)

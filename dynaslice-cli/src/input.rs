@@ -1,110 +1,117 @@
 //! The input options every command that reads cross-sections shares, and reading them through
-//! [`dynaslice_data::input`].
+//! [`dynaslice_data::input`]. The options are not written here one by one: [`InputArgs`] makes
+//! clap arguments of the rows of the library's table (`dynaslice_data::input_flags`), each
+//! value checked by [`InputSpec::set`], as Python's keywords are, so both refuse the same
+//! values in the same words.
 
 use super::progress::Progress;
 use super::times::note;
 use anyhow::Result;
-use dynaslice_data::drawn_slices::{PlaneMode, SparseAxes};
-use dynaslice_data::frame_range::FrameRange;
+use clap::{Arg, ArgAction, ArgMatches, Command};
+use dynaslice_data::input_flags::{InputFlag, INPUT_FLAGS};
 use dynaslice_data::input_spec::InputSpec;
-use dynaslice_data::nesting::NestingMode;
-use dynaslice_data::nifti::HeaderSpacing;
-use dynaslice_data::rtstruct::RoiExtent;
 use dynaslice_data::Sequence;
 use dynaslice_model::ModelFile;
 use dynaslice_train::job::input_as_trained;
 use std::path::PathBuf;
 
-use crate::options::{count, positive_f64};
-
-/// Most rotated planes a label map is resliced into (the paper uses 20).
-const MAX_ROTATED_PLANES: usize = 1000;
-
-/// Options shared by every command that reads cross-sections.
-#[derive(clap::Args, Debug, Clone)]
+/// Options shared by every command that reads cross-sections: the inputs, and the options of
+/// the library's table as given (an option not given is `None`).
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct InputArgs {
-    /// Cross-sections: native JSON (.json), a .csl file, a DICOM RT Structure Set, a sequence
-    /// manifest (.seq, .cslseq: `<time> <path>` lines of single-timestep inputs), or label maps
-    /// (.nii, .nii.gz, .nrrd, .nhdr, .seg.nrrd). Several inputs are views of one subject at the
-    /// same times (e.g. a short-axis stack and long-axis views).
-    #[arg(required = true, value_name = "INPUT")]
-    pub inputs: Vec<PathBuf>,
-    /// Frames to use, A:B:STEP (Python slice; e.g. 0:37:4 = every 4th of 37; an end past the
-    /// last frame is cut there, with a warning) [default: 0:, or as the model was trained where
-    /// a command takes a model]
-    #[arg(long, value_name = "A:B:STEP")]
-    pub frames: Option<FrameRange>,
-    /// Label-name table ("<label> <name>" per line) for inputs that carry label numbers only.
-    #[arg(long, value_name = "FILE")]
-    pub label_names: Option<PathBuf>,
-    /// Label maps: how they become planes. `slices`: every slice of the image as drawn (cine
-    /// short-axis stacks, long-axis views); `sparse`: only the slices that carry labels, along any
-    /// voxel axis, the rest unobserved (a few slices drawn in Slicer or ITK-SNAP); `reslice`: the
-    /// paper's protocol for dense segmentations; `auto`: slices for 3 slices or fewer or slices
-    /// at least 2× thicker than the pixels, sparse for sparsely drawn maps, reslice otherwise.
-    /// [default: auto]
-    #[arg(long, value_name = "auto|slices|reslice|sparse")]
-    pub planes: Option<PlaneMode>,
-    /// Sparsely drawn label maps: the voxel axes drawn on (`auto` detects them; `k`, `i,k`, …)
-    /// [default: auto]
-    #[arg(long, value_name = "auto|AXES")]
-    pub drawn_axes: Option<SparseAxes>,
-    /// RT Structure Sets: `file` takes each ROI as contoured on every contour plane of its file
-    /// (absent where it has no contour); `own` only between its own first and last contour.
-    /// [default: file]
-    #[arg(long, value_name = "file|own")]
-    pub roi_extent: Option<RoiExtent>,
-    /// Label maps: planes rotated about the volume's z axis through the labelled region's centre
-    /// [default: 20]
-    #[arg(long, value_parser = count(0, MAX_ROTATED_PLANES))]
-    pub rotated_planes: Option<usize>,
-    /// Label maps: use every k-th axial slice of the labelled range (0: none) [default: 2]
-    #[arg(long, value_parser = count(0, usize::MAX))]
-    pub axial_step: Option<usize>,
-    /// Label maps: label values to reconstruct, one class each (default: every nonzero label).
-    #[arg(long, value_delimiter = ',')]
-    pub labels: Option<Vec<i32>>,
-    /// Label maps: in-plane sampling step of the resliced planes, world units (default: half the
-    /// smallest voxel spacing, or the labelled box's longest diagonal / 1536 where coarser).
-    #[arg(long, value_parser = positive_f64)]
-    pub pixel: Option<f64>,
-    /// Classes drawn one inside another (an endocardium inside its epicardium, a GTV inside
-    /// its organ): `auto` finds them from the contours and trains the outer as its region minus
-    /// the inner's, recomposed in volumes and RT Structure Sets; `off` trains every class as
-    /// drawn; `INNER:OUTER,…` (labels) names the pairs. [default: auto]
-    #[arg(long, value_name = "auto|off|INNER:OUTER,…")]
-    pub nesting: Option<NestingMode>,
-    /// NIfTI label maps: the voxel spacing where the header disagrees with itself. `auto`: the
-    /// sform where sform_code > 0, else the qform (nibabel's rule), warning where the sform's
-    /// spacing and pixdim differ; `sform`; `qform`; `pixdim`: the sform's orientation and
-    /// origin with pixdim's spacing. [default: auto]
-    #[arg(long, value_name = "auto|sform|qform|pixdim")]
-    pub header_spacing: Option<HeaderSpacing>,
+    /// The inputs and the input options given.
+    pub given: InputSpec,
+}
+
+/// The help of the positional inputs.
+const INPUTS_HELP: &str = "Cross-sections: native JSON (.json), a .csl file, a DICOM RT \
+    Structure Set, a sequence manifest (.seq, .cslseq: `<time> <path>` lines of single-timestep \
+    inputs), or label maps (.nii, .nii.gz, .nrrd, .nhdr, .seg.nrrd). Several inputs are views \
+    of one subject at the same times (e.g. a short-axis stack and long-axis views)";
+
+/// The clap argument of the input option `flag`: its flag, value name, help (with the default
+/// as the help shows it) and a parser that checks the value as the library does. The default
+/// is shown, not filled in: an option not given stays `None` for the reader's default or the
+/// model's record ([`InputArgs::spec_as_trained`]).
+fn input_arg(flag: &'static InputFlag) -> Arg {
+    let arg = Arg::new(flag.name)
+        .long(flag.name)
+        .value_name(flag.value_name)
+        .help(flag.short_help())
+        .value_parser(move |s: &str| {
+            InputSpec::default()
+                .set(flag.name, s)
+                .map(|()| s.to_string())
+        });
+    let arg = match flag.long {
+        Some(_) => arg.long_help(flag.long_help()),
+        None => arg,
+    };
+    match flag.list {
+        true => arg.action(ArgAction::Append).value_delimiter(','),
+        false => arg.action(ArgAction::Set),
+    }
+}
+
+impl clap::FromArgMatches for InputArgs {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        let mut given = InputSpec {
+            inputs: m
+                .get_many::<PathBuf>("inputs")
+                .map(|p| p.cloned().collect())
+                .unwrap_or_default(),
+            ..InputSpec::default()
+        };
+        for flag in &INPUT_FLAGS {
+            let Some(items) = m.get_many::<String>(flag.name) else {
+                continue;
+            };
+            // Each item was checked as it was parsed; a list's items set together.
+            let text = items.cloned().collect::<Vec<_>>().join(",");
+            given.set(flag.name, &text).map_err(|e| {
+                clap::Error::raw(
+                    clap::error::ErrorKind::ValueValidation,
+                    format!("--{} {text}: {e}", flag.name),
+                )
+            })?;
+        }
+        Ok(InputArgs { given })
+    }
+
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+impl clap::Args for InputArgs {
+    fn augment_args(cmd: Command) -> Command {
+        let inputs = Arg::new("inputs")
+            .required(true)
+            .value_name("INPUT")
+            .action(ArgAction::Append)
+            .value_parser(clap::value_parser!(PathBuf))
+            .help(INPUTS_HELP);
+        INPUT_FLAGS
+            .iter()
+            .fold(cmd.arg(inputs), |cmd, flag| cmd.arg(input_arg(flag)))
+    }
+
+    fn augment_args_for_update(cmd: Command) -> Command {
+        Self::augment_args(cmd)
+    }
 }
 
 impl InputArgs {
     /// The inputs for messages: `a.nii.gz`, or `a.nii.gz + b.nii.gz`.
     pub fn describe(&self) -> String {
-        self.spec().describe()
+        self.given.describe()
     }
 
     /// These options as the one input specification the front ends share: an option not given
     /// is `None` (the reader's default, or the model's record: [`InputArgs::spec_as_trained`]).
     pub fn spec(&self) -> InputSpec {
-        InputSpec {
-            inputs: self.inputs.clone(),
-            frames: self.frames,
-            label_names: self.label_names.clone(),
-            planes: self.planes,
-            drawn_axes: self.drawn_axes,
-            roi_extent: self.roi_extent,
-            rotated_planes: self.rotated_planes,
-            axial_step: self.axial_step,
-            labels: self.labels.clone(),
-            pixel: self.pixel,
-            nesting: self.nesting.clone(),
-            header_spacing: self.header_spacing,
-        }
+        self.given.clone()
     }
 
     /// [`InputArgs::spec`] with every option not given taken from how `file`'s model read its
@@ -134,6 +141,7 @@ pub fn read_as_trained(args: &InputArgs, file: &ModelFile) -> Result<Sequence> {
 mod tests {
     use crate::Cli;
     use clap::CommandFactory;
+    use dynaslice_data::nesting::NestingMode;
     use dynaslice_data::reslice::ResliceOptions;
 
     /// The defaults the help states are the reader's.
@@ -143,15 +151,63 @@ mod tests {
         let train = cli.find_subcommand("train").unwrap();
         let help = |name: &str| {
             let arg = train.get_arguments().find(|a| a.get_id() == name).unwrap();
-            arg.get_help().unwrap().to_string()
+            let long = arg.get_long_help().unwrap_or(arg.get_help().unwrap());
+            (arg.get_help().unwrap().to_string(), long.to_string())
+        };
+        let states = |name: &str, default: String| {
+            let (short, long) = help(name);
+            let shown = format!("[default: {default}]");
+            assert!(short.ends_with(&shown) && long.ends_with(&shown), "{name}");
         };
         let d = ResliceOptions::default();
-        assert!(help("rotated_planes").ends_with(&format!("[default: {}]", d.rotated)));
-        assert!(help("axial_step").ends_with(&format!("[default: {}]", d.axial_step)));
+        states("rotated-planes", d.rotated.to_string());
+        states("axial-step", d.axial_step.to_string());
         let options = dynaslice_data::input::InputOptions::default();
-        assert!(help("planes").ends_with(&format!("[default: {}]", options.planes)));
-        assert!(help("drawn_axes").ends_with(&format!("[default: {}]", options.sparse_axes)));
-        assert!(help("roi_extent").ends_with(&format!("[default: {}]", options.roi_extent)));
-        assert!(help("header_spacing").ends_with(&format!("[default: {}]", options.header_spacing)));
+        states("planes", options.planes.to_string());
+        states("drawn-axes", options.sparse_axes.to_string());
+        states("roi-extent", options.roi_extent.to_string());
+        states("header-spacing", options.header_spacing.to_string());
+        states("nesting", NestingMode::default().to_string());
+    }
+
+    /// The options given become the spec, a list's occurrences joined; a value the library
+    /// refuses is refused with the library's words.
+    #[test]
+    fn the_options_given_are_the_spec_and_refused_as_the_library_refuses() {
+        use super::InputArgs;
+        use clap::{Args, FromArgMatches};
+        use dynaslice_data::input_spec::InputSpec;
+        let cmd = || InputArgs::augment_args(clap::Command::new("t"));
+        let m = cmd()
+            .try_get_matches_from([
+                "t", "a.nii.gz", "b.nii.gz", "--labels", "1", "--labels", "2,3", "--pixel", "0.5",
+                "--planes", "sparse",
+            ])
+            .unwrap();
+        let mut want = InputSpec {
+            inputs: vec!["a.nii.gz".into(), "b.nii.gz".into()],
+            ..InputSpec::default()
+        };
+        want.set("labels", "1,2,3").unwrap();
+        want.set("pixel", "0.5").unwrap();
+        want.set("planes", "sparse").unwrap();
+        assert_eq!(InputArgs::from_arg_matches(&m).unwrap().spec(), want);
+        for (flag, value) in [
+            ("rotated-planes", "100000"),
+            ("pixel", "-1"),
+            ("axial-step", "1.5"),
+            ("labels", "x"),
+            ("planes", "flat"),
+        ] {
+            let library = InputSpec::default().set(flag, value).unwrap_err();
+            let e = cmd()
+                .try_get_matches_from(["t", "a.nii.gz", &format!("--{flag}={value}")])
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(&format!("'{value}'")) && e.contains(&library),
+                "{e}"
+            );
+        }
     }
 }

@@ -64,14 +64,14 @@ pub fn run(a: Args) -> Result<()> {
     let loss_csv = RunFiles::beside(&a.model).csv;
     let inputs = [&a.model, &loss_csv]
         .into_iter()
-        .chain(&a.input.inputs)
-        .chain(&a.input.label_names);
+        .chain(&a.input.given.inputs)
+        .chain(&a.input.given.label_names);
     let mut plan = Plan::new(inputs, a.force);
     plan.file("-o", &a.output, Kind::Html)?;
     let file = ModelFile::open(&a.model)?;
     let times = times_of(&file, a.times.as_ref(), &times_option(a.times.as_ref()))?;
     let m = measure::measure(&file, &times, a.resolution)?;
-    let seq = if a.input.inputs.is_empty() {
+    let seq = if a.input.given.inputs.is_empty() {
         None
     } else {
         Some(input::read_as_trained(&a.input, &file)?)

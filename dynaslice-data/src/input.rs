@@ -66,16 +66,15 @@ impl InputKind {
 
 /// The frame and units of inputs read together: the first input's (a manifest's first
 /// entry's), which the model records and its outputs default to.
-pub fn space_of(paths: &[PathBuf]) -> Result<(Space, Units)> {
-    let Some(first) = paths.first() else {
+pub fn space_of(inputs: &[Opened]) -> Result<(Space, Units)> {
+    let Some(first) = inputs.first() else {
         return Err(ErrorKind::Empty("no input".into()).into());
     };
-    match InputKind::of(first)?.space() {
+    match first.kind.space() {
         Some(space) => Ok(space),
         None => {
-            let entries = manifest::read(first)?;
-            let entry = entries.first().ok_or_else(|| {
-                DataError::new(ErrorKind::Empty("an empty manifest".into())).in_file(first)
+            let entry = first.entries.first().ok_or_else(|| {
+                DataError::new(ErrorKind::Empty("an empty manifest".into())).in_file(&first.path)
             })?;
             Ok(InputKind::of(&entry.path)?
                 .space()
@@ -106,9 +105,45 @@ pub fn time_unit_of(paths: &[PathBuf]) -> Result<TimeUnit> {
 /// input at one time), and every plane of an image annotates every class of the union (absent
 /// where the image does not show it); RT Structure Sets keep their own annotations.
 pub fn read(paths: &[PathBuf], options: &InputOptions) -> Result<Sequence> {
-    let parts = paths
+    read_opened(&open(paths)?, options)
+}
+
+/// An input by kind, a manifest with its entries: parsed once however many of reading
+/// ([`read_opened`]), [`space_of`] and the options' check (`InputSpec::read`) look into it.
+#[derive(Clone, Debug)]
+pub struct Opened {
+    /// The input's path.
+    pub path: PathBuf,
+    /// Its kind.
+    pub kind: InputKind,
+    /// A manifest's entries (none for the other kinds).
+    pub entries: Vec<manifest::Entry>,
+}
+
+/// `paths` by kind, each manifest's entries parsed.
+pub fn open(paths: &[PathBuf]) -> Result<Vec<Opened>> {
+    paths
         .iter()
-        .map(|p| read_part(p, options))
+        .map(|path| {
+            let kind = InputKind::of(path)?;
+            let entries = match kind {
+                InputKind::Manifest => manifest::read(path)?,
+                _ => Vec::new(),
+            };
+            Ok(Opened {
+                path: path.clone(),
+                kind,
+                entries,
+            })
+        })
+        .collect()
+}
+
+/// [`read`] of inputs already opened.
+pub fn read_opened(inputs: &[Opened], options: &InputOptions) -> Result<Sequence> {
+    let parts = inputs
+        .iter()
+        .map(|input| read_part(input, options))
         .collect::<Result<Vec<Part>>>()?;
     if parts.is_empty() {
         return Err(ErrorKind::Empty("no input".into()).into());
@@ -121,9 +156,9 @@ pub fn read(paths: &[PathBuf], options: &InputOptions) -> Result<Sequence> {
 }
 
 /// Reads one input, frames selected, as a part to combine.
-fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
+fn read_part(input: &Opened, options: &InputOptions) -> Result<Part> {
+    let (path, kind) = (input.path.as_path(), input.kind);
     let at = |e: DataError| e.in_file(path);
-    let kind = InputKind::of(path)?;
     // Per class: whether this reader made up its name (see `Part::generated`).
     let made_up = |sequence: &Sequence, table: &LabelTable| -> Vec<Option<InputKind>> {
         sequence
@@ -178,7 +213,7 @@ fn read_part(path: &Path, options: &InputOptions) -> Result<Part> {
             (sequence, Absence::Union, generated)
         }
         InputKind::Manifest => {
-            let (sequence, generated, frame) = read_manifest(path, options)?;
+            let (sequence, generated, frame) = read_manifest(input, options)?;
             frame_of_reference = frame;
             (sequence, Absence::AsRead, generated)
         }
@@ -232,14 +267,15 @@ fn planes_of(volume: &LabelVolume, table: &LabelTable, options: &InputOptions) -
 type Manifest = (Sequence, Vec<Option<InputKind>>, Option<String>);
 
 /// Reads a manifest: every entry a single timestep, placed at its time.
-fn read_manifest(path: &Path, options: &InputOptions) -> Result<Manifest> {
+fn read_manifest(manifest: &Opened, options: &InputOptions) -> Result<Manifest> {
+    let path = manifest.path.as_path();
     let entry_options = InputOptions {
         frames: FrameRange::ALL,
         ..options.clone()
     };
     let mut parts = Vec::new();
-    for entry in manifest::read(path)? {
-        match InputKind::of(&entry.path) {
+    for entry in &manifest.entries {
+        let kind = match InputKind::of(&entry.path) {
             Ok(InputKind::Manifest) => {
                 return Err(manifest_error(
                     path,
@@ -247,7 +283,7 @@ fn read_manifest(path: &Path, options: &InputOptions) -> Result<Manifest> {
                     "a manifest cannot list a manifest",
                 ))
             }
-            Ok(_) => {}
+            Ok(kind) => kind,
             Err(e) => {
                 return Err(manifest_error(
                     path,
@@ -255,7 +291,7 @@ fn read_manifest(path: &Path, options: &InputOptions) -> Result<Manifest> {
                     &format!("{}: {}", entry.path.display(), e.kind),
                 ))
             }
-        }
+        };
         // An entry that cannot be opened (absent, a folder, a device) is the manifest line's
         // mistake: the message names the manifest, its line and the entry.
         if let Err(e) = dynaslice_sequence::input_file::regular_file(&entry.path) {
@@ -267,7 +303,12 @@ fn read_manifest(path: &Path, options: &InputOptions) -> Result<Manifest> {
             .in_file(path)
             .at_line(entry.line));
         }
-        let mut part = read_part(&entry.path, &entry_options)?;
+        let single = Opened {
+            path: entry.path.clone(),
+            kind,
+            entries: Vec::new(),
+        };
+        let mut part = read_part(&single, &entry_options)?;
         let count = part.sequence.frames().len();
         if count != 1 {
             return Err(manifest_error(

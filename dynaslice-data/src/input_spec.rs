@@ -1,13 +1,14 @@
 //! How to read a training run's inputs, as the command line's flags and Python's keywords give
 //! it: every field optional, `None` meaning [`InputOptions::default`]'s value. The one mapping
-//! from those options to [`InputOptions`], so that the front ends cannot drift.
+//! from those options to [`InputOptions`], so that the front ends cannot drift. The options'
+//! names, limits and the inputs they apply to are the rows of [`crate::input_flags`].
 
 use crate::drawn_slices::{PlaneMode, SparseAxes};
 use crate::frame_range::FrameRange;
 use crate::input::{self, InputOptions};
+use crate::input_flags::{self, AppliesTo, INPUT_FLAGS};
 use crate::input_kind::InputKind;
 use crate::label_table::LabelTable;
-use crate::manifest;
 use crate::nesting::{self, NestingMode};
 use crate::nifti::HeaderSpacing;
 use crate::reslice::ResliceOptions;
@@ -17,7 +18,8 @@ use dynaslice_sequence::sequence::Sequence;
 use dynaslice_sequence::space::{Space, TimeUnit, Units};
 use std::path::PathBuf;
 
-/// The input options of `dynaslice train` and `dynaslice.train`, by the same names.
+/// The input options of `dynaslice train` and `dynaslice.train`, by the same names: one field
+/// per row of [`INPUT_FLAGS`].
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct InputSpec {
     /// The inputs: several are views of one subject at the same times.
@@ -90,8 +92,22 @@ impl InputSpec {
     /// Reads the inputs into one sequence, nested classes made disjoint as
     /// [`InputSpec::nesting`] says ([`nesting::apply`]).
     pub fn read(&self) -> Result<Sequence> {
-        self.check_options_apply()?;
-        let seq = input::read(&self.inputs, &self.options()?)?;
+        self.read_opened(&input::open(&self.inputs)?)
+    }
+
+    /// [`InputSpec::read`], with the frame and units of the inputs' coordinates
+    /// ([`input::space_of`]): each manifest among the inputs parsed once for the options'
+    /// check, the reading and the frame.
+    pub fn read_with_space(&self) -> Result<(Sequence, Space, Units)> {
+        let inputs = input::open(&self.inputs)?;
+        let seq = self.read_opened(&inputs)?;
+        let (space, units) = input::space_of(&inputs)?;
+        Ok((seq, space, units))
+    }
+
+    fn read_opened(&self, inputs: &[input::Opened]) -> Result<Sequence> {
+        self.check_options_apply(inputs)?;
+        let seq = input::read_opened(inputs, &self.options()?)?;
         nesting::apply(seq, &self.nesting.clone().unwrap_or_default())
             .map_err(|e| e.in_file(std::path::Path::new(&self.describe())))
     }
@@ -99,33 +115,27 @@ impl InputSpec {
     /// Refuses an option no input reads, as a user expects of a flag that would otherwise be
     /// silently ignored: the label-map options without a NIfTI or NRRD label map among the
     /// inputs (a manifest's entries counted), `roi-extent` without an RT Structure Set.
-    fn check_options_apply(&self) -> Result<()> {
+    fn check_options_apply(&self, inputs: &[input::Opened]) -> Result<()> {
         let mut kinds = Vec::new();
-        for path in &self.inputs {
-            match InputKind::of(path) {
-                // A manifest that cannot be read is reported by the reading itself.
-                Ok(InputKind::Manifest) => kinds.extend(
-                    manifest::read(path)
-                        .unwrap_or_default()
+        for input in inputs {
+            match input.kind {
+                InputKind::Manifest => kinds.extend(
+                    input
+                        .entries
                         .iter()
                         .filter_map(|e| InputKind::of(&e.path).ok()),
                 ),
-                Ok(kind) => kinds.push(kind),
-                Err(_) => {}
+                kind => kinds.push(kind),
             }
         }
         let has = |k: InputKind| kinds.contains(&k);
         let label_map = has(InputKind::Nifti) || has(InputKind::Nrrd);
-        let set = |given: bool, name: &'static str| given.then_some(name);
-        let label_map_only = [
-            set(self.planes.is_some(), "--planes"),
-            set(self.drawn_axes.is_some(), "--drawn-axes"),
-            set(self.rotated_planes.is_some(), "--rotated-planes"),
-            set(self.axial_step.is_some(), "--axial-step"),
-            set(self.labels.is_some(), "--labels"),
-            set(self.pixel.is_some(), "--pixel"),
-            set(self.header_spacing.is_some(), "--header-spacing"),
-        ];
+        let given = |to: AppliesTo| {
+            INPUT_FLAGS
+                .iter()
+                .find(|f| f.applies_to == to && self.is_set(f.name))
+                .map(|f| format!("--{}", f.name))
+        };
         let refuse = |option: &str, applies_to: &str| -> Result<()> {
             Err(ErrorKind::Option(format!(
                 "{option} applies to {applies_to}, and {} holds none: leave it out",
@@ -134,12 +144,14 @@ impl InputSpec {
             .into())
         };
         if !label_map {
-            if let Some(option) = label_map_only.into_iter().flatten().next() {
-                return refuse(option, "label maps (NIfTI, NRRD)");
+            if let Some(option) = given(AppliesTo::LabelMaps) {
+                return refuse(&option, "label maps (NIfTI, NRRD)");
             }
         }
-        if self.roi_extent.is_some() && !has(InputKind::RtStruct) {
-            return refuse("--roi-extent", "DICOM RT Structure Sets");
+        if !has(InputKind::RtStruct) {
+            if let Some(option) = given(AppliesTo::RtStructs) {
+                return refuse(&option, "DICOM RT Structure Sets");
+            }
         }
         Ok(())
     }
@@ -149,52 +161,20 @@ impl InputSpec {
     /// A model records it ([`InputSpec::with_reading`] reads it back), so that a command given
     /// the input again reads it as training did.
     pub fn reading(&self) -> Option<String> {
-        let mut entries: Vec<String> = Vec::new();
-        let mut add = |key: &str, value: Option<String>| {
-            if let Some(v) = value {
-                entries.push(format!("{key}={v}"));
-            }
-        };
-        add(
-            "label-names",
-            self.label_names.as_ref().map(|p| p.display().to_string()),
-        );
-        add("planes", self.planes.map(|v| v.to_string()));
-        add("drawn-axes", self.drawn_axes.map(|v| v.to_string()));
-        add("roi-extent", self.roi_extent.map(|v| v.to_string()));
-        add("rotated-planes", self.rotated_planes.map(|v| v.to_string()));
-        add("axial-step", self.axial_step.map(|v| v.to_string()));
-        add(
-            "labels",
-            self.labels
-                .as_ref()
-                .map(|l| l.iter().map(i32::to_string).collect::<Vec<_>>().join(",")),
-        );
-        add("pixel", self.pixel.map(|v| v.to_string()));
-        add("nesting", self.nesting.as_ref().map(|v| v.to_string()));
-        add("header-spacing", self.header_spacing.map(|v| v.to_string()));
+        let entries: Vec<String> = INPUT_FLAGS
+            .iter()
+            // `frames` is recorded on its own (the run record's `frames`).
+            .filter(|f| f.name != "frames")
+            .filter_map(|f| Some(format!("{}={}", f.name, self.text_of(f.name)?)))
+            .collect();
         (!entries.is_empty()).then(|| entries.join("; "))
     }
 
-    /// The input options by the command line's flag names (without `--`): what
-    /// [`InputSpec::set`] and [`InputSpec::reading`] take.
-    pub const KEYS: [&'static str; 11] = [
-        "frames",
-        "label-names",
-        "planes",
-        "drawn-axes",
-        "roi-extent",
-        "rotated-planes",
-        "axial-step",
-        "labels",
-        "pixel",
-        "nesting",
-        "header-spacing",
-    ];
-
-    /// Sets option `key` (one of [`InputSpec::KEYS`], `_` or `-`) from the command line's text
-    /// of it, parsed as the flag's: the one reading of a keyword (Python's) or a record's entry.
-    /// An error says what is wrong with the value (a list's item quoted).
+    /// Sets option `key` (a row of [`INPUT_FLAGS`], `_` or `-`) from the command line's text of
+    /// it, parsed and checked as the flag's (numbers against the row's limit): the one reading
+    /// of a flag (the command line's value parsers call it), a keyword (Python's) or a record's
+    /// entry. An error says what is wrong with the value (a list's item quoted) in the command
+    /// line's words.
     pub fn set(&mut self, key: &str, value: &str) -> std::result::Result<(), String> {
         fn parse<T: std::str::FromStr>(value: &str) -> std::result::Result<T, String>
         where
@@ -202,14 +182,17 @@ impl InputSpec {
         {
             value.trim().parse().map_err(|e: T::Err| e.to_string())
         }
-        match key.replace('_', "-").as_str() {
+        let not_an_option = || format!("{key:?} is not an input option");
+        let flag = input_flags::find(key).ok_or_else(not_an_option)?;
+        match flag.name {
             "frames" => self.frames = Some(parse(value)?),
+            "label-names" if value.is_empty() => return Err("an empty path".into()),
             "label-names" => self.label_names = Some(PathBuf::from(value)),
             "planes" => self.planes = Some(parse(value)?),
             "drawn-axes" => self.drawn_axes = Some(parse(value)?),
             "roi-extent" => self.roi_extent = Some(parse(value)?),
-            "rotated-planes" => self.rotated_planes = Some(parse(value)?),
-            "axial-step" => self.axial_step = Some(parse(value)?),
+            "rotated-planes" => self.rotated_planes = Some(flag.whole(value)?),
+            "axial-step" => self.axial_step = Some(flag.whole(value)?),
             "labels" => {
                 let item = |l: &str| parse(l).map_err(|e| format!("{:?}: {e}", l.trim()));
                 self.labels = Some(
@@ -219,30 +202,42 @@ impl InputSpec {
                         .collect::<std::result::Result<_, _>>()?,
                 )
             }
-            "pixel" => self.pixel = Some(parse(value)?),
+            "pixel" => self.pixel = Some(flag.real(value)?),
             "nesting" => self.nesting = Some(parse(value)?),
             "header-spacing" => self.header_spacing = Some(parse(value)?),
-            _ => return Err(format!("{key:?} is not an input option")),
+            _ => return Err(not_an_option()),
         }
         Ok(())
     }
 
-    /// Whether option `key` (one of [`InputSpec::KEYS`]) is given.
-    fn is_set(&self, key: &str) -> bool {
-        match key {
-            "frames" => self.frames.is_some(),
-            "label-names" => self.label_names.is_some(),
-            "planes" => self.planes.is_some(),
-            "drawn-axes" => self.drawn_axes.is_some(),
-            "roi-extent" => self.roi_extent.is_some(),
-            "rotated-planes" => self.rotated_planes.is_some(),
-            "axial-step" => self.axial_step.is_some(),
-            "labels" => self.labels.is_some(),
-            "pixel" => self.pixel.is_some(),
-            "nesting" => self.nesting.is_some(),
-            "header-spacing" => self.header_spacing.is_some(),
-            _ => false,
+    /// Option `name`'s value (a row of [`INPUT_FLAGS`]) as [`InputSpec::set`] reads it, `None`
+    /// where it is not given.
+    fn text_of(&self, name: &str) -> Option<String> {
+        fn shown<T: ToString>(v: &Option<T>) -> Option<String> {
+            v.as_ref().map(T::to_string)
         }
+        match name {
+            "frames" => shown(&self.frames),
+            "label-names" => self.label_names.as_ref().map(|p| p.display().to_string()),
+            "planes" => shown(&self.planes),
+            "drawn-axes" => shown(&self.drawn_axes),
+            "roi-extent" => shown(&self.roi_extent),
+            "rotated-planes" => shown(&self.rotated_planes),
+            "axial-step" => shown(&self.axial_step),
+            "labels" => self
+                .labels
+                .as_ref()
+                .map(|l| l.iter().map(i32::to_string).collect::<Vec<_>>().join(",")),
+            "pixel" => shown(&self.pixel),
+            "nesting" => shown(&self.nesting),
+            "header-spacing" => shown(&self.header_spacing),
+            _ => None,
+        }
+    }
+
+    /// Whether option `name` (a row of [`INPUT_FLAGS`]) is given.
+    fn is_set(&self, name: &str) -> bool {
+        self.text_of(name).is_some()
     }
 
     /// This spec with every option it leaves unset taken from `reading` ([`InputSpec::reading`]'s
@@ -255,7 +250,7 @@ impl InputSpec {
                 .ok_or_else(|| format!("recorded reading {entry:?} is not KEY=VALUE"))?;
             let (key, value) = (key.trim(), value.trim());
             // `frames` is recorded on its own (the run record's `frames`), not in the reading.
-            if key == "frames" || !Self::KEYS.contains(&key) {
+            if key == "frames" || input_flags::find(key).is_none_or(|f| f.name != key) {
                 return Err(format!("recorded reading {key:?} is not an input option"));
             }
             if !self.is_set(key) {
@@ -264,11 +259,6 @@ impl InputSpec {
             }
         }
         Ok(self)
-    }
-
-    /// The frame and units of the inputs' coordinates ([`input::space_of`]).
-    pub fn space(&self) -> Result<(Space, Units)> {
-        input::space_of(&self.inputs)
     }
 
     /// The unit of the inputs' times ([`input::time_unit_of`]).
@@ -334,5 +324,94 @@ mod tests {
             Some("\"x\"")
         );
         assert!(spec.set("colour", "red").is_err());
+    }
+
+    /// What the command line refuses (its value parsers call `set`) is refused here, for
+    /// Python's keywords and a record's entries, in the same words.
+    #[test]
+    fn out_of_range_values_are_refused_as_the_command_line_does() {
+        let mut spec = InputSpec::default();
+        for (key, value, message) in [
+            (
+                "rotated_planes",
+                "100000",
+                "out of range; allowed: a whole number from 0 to 1000",
+            ),
+            (
+                "rotated-planes",
+                "-1",
+                "out of range; allowed: a whole number from 0 to 1000",
+            ),
+            (
+                "rotated_planes",
+                "2.5",
+                "not a whole number; allowed: a whole number from 0 to 1000",
+            ),
+            (
+                "axial_step",
+                "-2",
+                "out of range; allowed: a whole number from 0 to 18446744073709551615",
+            ),
+            ("pixel", "-1", "out of range; allowed: a finite number > 0"),
+            ("pixel", "0", "out of range; allowed: a finite number > 0"),
+            (
+                "pixel",
+                "inf",
+                "not a finite number; allowed: a finite number > 0",
+            ),
+            ("pixel", "x", "not a number; allowed: a finite number > 0"),
+            ("label_names", "", "an empty path"),
+        ] {
+            assert_eq!(
+                spec.set(key, value),
+                Err(message.to_string()),
+                "{key}={value}"
+            );
+        }
+        assert_eq!(spec, InputSpec::default(), "nothing refused is set");
+        spec.set("rotated_planes", "1000").unwrap();
+        spec.set("axial_step", "0").unwrap();
+        spec.set("pixel", "0.25").unwrap();
+        assert_eq!(
+            (spec.rotated_planes, spec.axial_step, spec.pixel),
+            (Some(1000), Some(0), Some(0.25))
+        );
+        let e = InputSpec::default()
+            .with_reading("rotated-planes=5000")
+            .unwrap_err();
+        assert!(e.contains("out of range"), "{e}");
+    }
+
+    /// Every row of the table is a field: set from its text, recorded, and read back.
+    #[test]
+    fn every_option_of_the_table_is_set_and_recorded() {
+        let texts = [
+            ("frames", "0:5:2"),
+            ("label-names", "names.txt"),
+            ("planes", "reslice"),
+            ("drawn-axes", "k"),
+            ("roi-extent", "own"),
+            ("rotated-planes", "3"),
+            ("axial-step", "0"),
+            ("labels", "4,5"),
+            ("pixel", "0.5"),
+            ("nesting", "off"),
+            ("header-spacing", "qform"),
+        ];
+        let names: Vec<&str> = INPUT_FLAGS.iter().map(|f| f.name).collect();
+        assert_eq!(names, texts.map(|t| t.0));
+        let mut spec = InputSpec::default();
+        for (key, text) in texts {
+            assert!(!spec.is_set(key), "{key}");
+            spec.set(key, text).unwrap();
+            assert!(spec.is_set(key), "{key}");
+        }
+        let again = InputSpec {
+            frames: spec.frames,
+            ..InputSpec::default()
+        }
+        .with_reading(&spec.reading().unwrap())
+        .unwrap();
+        assert_eq!(again, spec);
     }
 }

@@ -80,6 +80,9 @@ def test_the_command_line_and_python_write_the_same_model(tmp_path, monkeypatch)
     ("steps", 0, "out of range; allowed: a whole number from 1 to 10000000"),
     ("checkpoint_minutes", -2.0, "out of range; allowed: a number from 0 to 525600"),
     ("budget_classes", 65, "out of range; allowed: a whole number from 1 to 64"),
+    # Input options: the limits of dynaslice_data::input_flags, checked by InputSpec::set.
+    ("rotated_planes", 100000, "out of range; allowed: a whole number from 0 to 1000"),
+    ("pixel", -1.0, "out of range; allowed: a finite number > 0"),
 ])
 def test_the_same_bad_option_gives_the_same_words_before_any_work(tmp_path, key, value, words):
     exe = cli()
@@ -91,7 +94,9 @@ def test_the_same_bad_option_gives_the_same_words_before_any_work(tmp_path, key,
     assert words in run.stderr, run.stderr
     with pytest.raises(ValueError) as e:
         dynaslice.train(missing, tmp_path / "m.dsm", progress=False, **{key: value})
-    assert str(e.value).startswith(key + ": ") and str(e.value).endswith(words), str(e.value)
+    # A training option's message starts `lr: `, an input option's `pixel "-1.0": `.
+    named = str(e.value).startswith((key + ": ", f'{key} "{value}": '))
+    assert named and str(e.value).endswith(words), str(e.value)
     assert not (tmp_path / "m.dsm").exists()
 
 

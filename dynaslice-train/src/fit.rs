@@ -314,7 +314,7 @@ pub(crate) fn fit_checked(
     if let Some(e) = failure {
         return Err(e.context("the loss log failed; the checkpoint is saved"));
     }
-    if outcome.history.is_empty() && outcome.steps_done > 0 {
+    if outcome.last.is_none() && outcome.steps_done > 0 {
         observer.note(&format!(
             "{} already holds all {} steps",
             checkpoint.as_deref().unwrap_or("the checkpoint"),

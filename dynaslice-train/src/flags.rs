@@ -1,15 +1,17 @@
 //! One table of the training options, as ripgrep keeps one `Flag` per option: each option's
 //! name, help, default and allowed values, in the order `dynaslice train --help` lists them.
 //! `TrainSpec` takes its defaults (`options`, `counts`) and limits (`validate`) from here, with
-//! the limits' type [`Limit`] and the option error [`SpecError`]; the command line builds its
-//! training flags from it (dynaslice-cli's `options.rs`, `flag_args!`) and Python reads its
-//! keywords through it (`dynaslice_train::job::set`, `TrainSpec::set`).
+//! the limits' type [`Limit`] (dynaslice-data's, which the input options share) and the option
+//! error [`SpecError`]; the command line builds its training flags from it (dynaslice-cli's
+//! `options.rs`, `flag_args!`) and Python reads its keywords through it
+//! (`dynaslice_train::job::set`, `TrainSpec::set`).
 //!
 //! The input options (`--frames`, `--planes`, …) are not here: every command that reads
-//! cross-sections shares them (dynaslice-data's `InputSpec`).
+//! cross-sections shares them (dynaslice-data's `input_flags` table and `InputSpec`).
 
 use crate::temporal_bound::DEFAULT_TEMPORAL_FACTOR;
 use dynaslice_core::format::{MAX_CLASSES, MAX_WIDTH};
+pub use dynaslice_data::limit::Limit;
 use std::fmt;
 
 /// Optimisation steps at most (a run's loss history holds one row per step).
@@ -40,96 +42,6 @@ pub const DEFAULT_CHECKPOINT_MINUTES: f64 = 2.0;
 /// fingers are lost; at 20 all three come out, the thin tube gains 0.03 IoU, and OReX's smooth
 /// `.csl` shapes move by −0.010 to +0.008 (lab/notes/2026-12-04-omega.md).
 pub const DEFAULT_OMEGA_0: f32 = 20.0;
-
-/// An option's allowed values: a closed or half-open interval of reals, or whole numbers.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Limit {
-    lo: f64,
-    /// `lo` itself excluded.
-    open: bool,
-    hi: f64,
-    whole: bool,
-}
-
-impl Limit {
-    /// Reals in (0, `hi`].
-    pub const fn positive(hi: f64) -> Limit {
-        Limit {
-            lo: 0.0,
-            open: true,
-            hi,
-            whole: false,
-        }
-    }
-
-    /// Reals in [0, `hi`].
-    pub const fn non_negative(hi: f64) -> Limit {
-        Limit {
-            lo: 0.0,
-            open: false,
-            hi,
-            whole: false,
-        }
-    }
-
-    /// Reals in [`lo`, `hi`].
-    pub const fn between(lo: f64, hi: f64) -> Limit {
-        Limit {
-            lo,
-            open: false,
-            hi,
-            whole: false,
-        }
-    }
-
-    /// Whole numbers in [`lo`, `hi`].
-    pub const fn count(lo: u64, hi: u64) -> Limit {
-        Limit {
-            lo: lo as f64,
-            open: false,
-            hi: hi as f64,
-            whole: true,
-        }
-    }
-
-    /// The lowest value allowed (or, where open, the bound above it).
-    pub fn lo(&self) -> f64 {
-        self.lo
-    }
-
-    /// The highest value allowed.
-    pub fn hi(&self) -> f64 {
-        self.hi
-    }
-
-    /// What the limit allows, in words.
-    pub fn allowed(&self) -> String {
-        match (self.whole, self.open, self.lo, self.hi) {
-            (true, ..) => format!("a whole number from {} to {}", self.lo, self.hi),
-            (_, _, f64::NEG_INFINITY, f64::INFINITY) => "any finite number".to_string(),
-            (_, true, 0.0, f64::INFINITY) => "a finite number > 0".to_string(),
-            (_, false, 0.0, f64::INFINITY) => "a finite number ≥ 0".to_string(),
-            (_, true, lo, hi) => format!("a number > {lo} and ≤ {hi}"),
-            (_, false, lo, hi) => format!("a number from {lo} to {hi}"),
-        }
-    }
-
-    /// `v` if the limit allows it, else "out of range; allowed: …" (or "not a finite number;
-    /// allowed: …"): the text the command line's parsers and Python's keyword checks share.
-    pub fn check(&self, v: f64) -> Result<f64, String> {
-        if !v.is_finite() {
-            return Err(format!("not a finite number; allowed: {}", self.allowed()));
-        }
-        if v < self.lo
-            || (self.open && v == self.lo)
-            || v > self.hi
-            || (self.whole && v.fract() != 0.0)
-        {
-            return Err(format!("out of range; allowed: {}", self.allowed()));
-        }
-        Ok(v)
-    }
-}
 
 /// A bad option: its name (as in `TrainSpec`) and what is wrong.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -574,29 +486,9 @@ impl Flag {
         let text = text.trim();
         match self.values {
             Values::Switch => Err(format!("--{} takes no value", self.long())),
-            Values::Whole | Values::Wholes => {
-                let v: u64 = text.parse().map_err(|_| {
-                    // `-1` or `99999999999999999999` is a whole number, only out of range.
-                    let digits = text.strip_prefix(['-', '+']).unwrap_or(text);
-                    let whole = !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit());
-                    let what = if whole {
-                        "out of range"
-                    } else {
-                        "not a whole number"
-                    };
-                    format!("{what}; allowed: {}", limit.allowed())
-                })?;
-                // Checked as an integer: u64 seeds lose digits as f64.
-                if (v as f64) < limit.lo() || (v as f64) > limit.hi() {
-                    return Err(format!("out of range; allowed: {}", limit.allowed()));
-                }
-                Ok(Value::Whole(v))
-            }
+            Values::Whole | Values::Wholes => limit.whole(text).map(Value::Whole),
             Values::Real32 | Values::Real64 | Values::Reals32 => {
-                let v: f64 = text
-                    .parse()
-                    .map_err(|_| format!("not a number; allowed: {}", limit.allowed()))?;
-                let v = limit.check(v)?;
+                let v = limit.real(text)?;
                 if self.values != Values::Real64 {
                     limit.check(v as f32 as f64).map_err(|_| {
                         format!("{text} is not representable as a 32-bit float in range")

@@ -161,7 +161,7 @@ pub fn set(
             spec.set(flag.name, value)
                 .map_err(|e| SetError::Invalid(format!("{}: {}", e.option, e.message)))
         }
-        None if InputSpec::KEYS.contains(&key.replace('_', "-").as_str()) => input
+        None if dynaslice_data::input_flags::find(&key).is_some() => input
             .set(&key, text)
             .map_err(|e| SetError::Invalid(format!("{key} {text:?}: {e}"))),
         None => Err(SetError::Unknown),
@@ -231,8 +231,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Finished> {
         ));
     }
     observer.note(&format!("reading {}", input.describe()));
-    let seq = input.read()?;
-    let (space, units) = input.space()?;
+    let (seq, space, units) = input.read_with_space()?;
     let record = InputRecord {
         description: input.describe(),
         frames: input.frames().to_string(),

@@ -102,7 +102,7 @@ impl TrainedModel<'_> {
             samples: Some(self.counts.record()),
             class_weights: self.class_weights.map(<[f32]>::to_vec),
             class_colors: RunRecord::colors_of(self.classes),
-            final_loss: self.outcome.history.last().map(|last| last.2),
+            final_loss: self.outcome.last.map(|last| last.2),
             ..self.input.clone()
         }
     }

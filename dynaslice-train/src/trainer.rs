@@ -127,14 +127,16 @@ pub const REPLAN_WINDOW: usize = 16;
 /// more than this share of the steps left (or 2 steps), so step-time noise does not move it.
 const REPLAN_TOLERANCE: f64 = 0.02;
 
-/// The trained network and its history.
+/// The trained network and how its last step ended.
 pub struct Outcome {
     /// The network.
     pub network: Network,
     /// Steps completed (may be fewer than `steps` when the time limit hit).
     pub steps_done: u64,
-    /// (step, loss terms, total) of every step run by this process.
-    pub history: Vec<(u64, LossTerms, f64)>,
+    /// (step, loss terms, total) of the last step run by this process, none where it ran none.
+    /// Every step's are `on_step`'s, for the caller to keep (the run's journal keeps them):
+    /// held here too, they were a second copy of up to `MAX_STEPS` rows.
+    pub last: Option<(u64, LossTerms, f64)>,
     /// Wall time of this process's training.
     pub elapsed: Duration,
     /// Length of the learning-rate schedule a timed run planned last (recorded in its
@@ -236,7 +238,7 @@ pub fn train(
     let mut objective = Objective::new(&net, o.threads.max(1), sampler.max_set_len());
     let mut batch = Batch::default();
     let mut grad = vec![0.0; net.params.len()];
-    let mut history = Vec::new();
+    let mut last = None;
     // The last steps' wall times, the process's first step left out (threads, caches).
     let mut recent = StepTimes::default();
     let start = Instant::now();
@@ -285,7 +287,7 @@ pub fn train(
             }
         }
         let loss = terms.total(&o.loss);
-        history.push((step, terms, loss));
+        last = Some((step, terms, loss));
         let flow = on_step(&Progress {
             step,
             steps: current.length,
@@ -306,7 +308,7 @@ pub fn train(
     Ok(Outcome {
         network: net,
         steps_done: step,
-        history,
+        last,
         elapsed: start.elapsed(),
         planned_steps: plan.map(|p| p.length),
         median_step_seconds: recent.median(),
@@ -443,12 +445,14 @@ mod tests {
 
     #[test]
     fn learns_a_pulsating_sphere() {
-        let out = train(&options(1500, None), 1, &mut Sphere, |_| {
+        let mut first = None;
+        let out = train(&options(1500, None), 1, &mut Sphere, |p| {
+            first = first.or(Some(p.loss));
             ControlFlow::Continue(())
         })
         .unwrap();
-        let first = out.history[0].2;
-        let last = out.history.last().unwrap().2;
+        let first = first.unwrap();
+        let last = out.last.unwrap().2;
         assert!(last < 0.2 * first, "loss {first} -> {last}");
         let bytes = out
             .network
@@ -511,12 +515,14 @@ mod tests {
         })
         .unwrap();
         assert_eq!(stopped.steps_done, 13);
-        let resumed = train(&options(30, Some(ckpt)), 1, &mut Sphere, |_| {
+        let mut first_step = None;
+        let resumed = train(&options(30, Some(ckpt)), 1, &mut Sphere, |p| {
+            first_step = first_step.or(Some(p.step));
             ControlFlow::Continue(())
         })
         .unwrap();
         assert_eq!(resumed.steps_done, 30);
-        assert_eq!(resumed.history.first().unwrap().0, 14);
+        assert_eq!(first_step, Some(14));
         assert!(resumed
             .network
             .params

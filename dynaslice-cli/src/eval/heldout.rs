@@ -103,7 +103,12 @@ pub(super) fn held_out(a: HeldoutArgs) -> Result<()> {
 
 /// Runs `dynaslice eval split`.
 pub(super) fn split(a: SplitArgs) -> Result<()> {
-    let inputs = a.input.inputs.iter().chain(&a.input.label_names);
+    let inputs = a
+        .input
+        .given
+        .inputs
+        .iter()
+        .chain(&a.input.given.label_names);
     let mut plan = Plan::new(inputs, a.force);
     plan.file("-o", &a.output, Kind::TrainingInput)?;
     // The contours as drawn: nested structures are found again (and made disjoint) when the

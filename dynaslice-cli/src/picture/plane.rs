@@ -17,8 +17,8 @@ use dynaslice_output::{Kind, Plan};
 pub(super) fn run(a: Args) -> Result<()> {
     let inputs = [&a.model]
         .into_iter()
-        .chain(&a.input.inputs)
-        .chain(&a.input.label_names);
+        .chain(&a.input.given.inputs)
+        .chain(&a.input.given.label_names);
     let mut plan = Plan::new(inputs, a.force);
     plan.file("-o", &a.output, Kind::Png)?;
     if a.times.as_ref().is_some_and(|t| t.len() > MAX_PANELS) {
