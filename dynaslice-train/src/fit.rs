@@ -260,12 +260,13 @@ pub(crate) fn fit_checked(
         domain.scale[0],
         domain.time_origin,
         domain.time_origin + domain.time_span,
-        match &options.plane_band {
-            Some(b) => format!(
+        match (&options.plane_band, spec.no_plane_band) {
+            (Some(b), _) => format!(
                 "|⟨ω_x, n⟩| ≤ {} across the parallel planes (n {:?})",
                 b.max, b.normal
             ),
-            None => "planes not all parallel: ω_x unbounded".into(),
+            (None, true) => "plane band off: ω_x unbounded".into(),
+            (None, false) => "planes not all parallel: ω_x unbounded".into(),
         },
         options.omega_0,
     ));

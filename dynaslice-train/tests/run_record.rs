@@ -88,3 +88,44 @@ fn the_trainers_metadata_is_a_run_record() {
     );
     assert!(record.final_loss.is_some_and(f64::is_finite));
 }
+
+/// A run on parallel planes records its plane band, the one `spatial_bound` gives its data;
+/// `--no-plane-band` records none.
+#[test]
+fn a_run_on_parallel_planes_records_its_plane_band() {
+    use dynaslice_train::data_sampler::domain_for;
+    use dynaslice_train::spatial_bound::plane_band;
+    let seq = dynaslice_synth::slice_sequence(
+        Shape::Blob,
+        &BenchmarkOptions {
+            planes: Some((0, 4)),
+            plane_resolution: 16,
+            volume_resolution: 8,
+            ..BenchmarkOptions::default()
+        },
+    )
+    .unwrap();
+    let input = InputRecord {
+        description: "parallel".into(),
+        frames: "0:".into(),
+        reading: None,
+        space: Space::Ras,
+        units: Units::Millimetres,
+        time_unit: TimeUnit::Plain,
+    };
+    let record = |no_plane_band: bool| {
+        let spec = TrainSpec {
+            steps: Some(2),
+            threads: Some(1),
+            widths: Some(vec![8, 8]),
+            no_plane_band,
+            ..TrainSpec::default()
+        };
+        let trained = fit(&seq, &spec, &input, None, &mut Quiet).unwrap();
+        RunRecord::of(&trained.bytes.model().unwrap()).unwrap()
+    };
+    let factor = TrainSpec::default().temporal_factor();
+    let band = plane_band(&seq, &domain_for(&seq), factor, true).unwrap();
+    assert_eq!(record(false).plane_band, Some(band.max));
+    assert_eq!(record(true).plane_band, None);
+}
