@@ -4,7 +4,7 @@
 //! image decodes, no console message, a screenshot is written).
 
 use dynaslice_data::nifti::read_volume;
-use dynaslice_test_support::browser::{browse, chromium};
+use dynaslice_test_support::browser::{browse, browse_webgl, chromium};
 use dynaslice_test_support::fixtures::succeeded;
 use dynaslice_test_support::spheres::{self, Sphere, SPHERES_DOMAIN};
 use serde_json::Value;
@@ -277,7 +277,7 @@ fn report_is_self_contained_matches_the_csv_and_opens_in_chromium() {
     }
 
     let Some(browser) = chromium() else { return };
-    let dom = browse(browser, &html_path, &["--disable-gpu", "--dump-dom"]);
+    let dom = browse_webgl(browser, &html_path, &["--dump-dom"]);
     assert!(
         dom.status.success(),
         "{}",

@@ -10,29 +10,13 @@
 mod common;
 
 use common::succeeded;
-use dynaslice_test_support::browser::{browse, chromium};
+use dynaslice_test_support::browser::{browse_webgl, chromium};
 use dynaslice_test_support::spheres::{self, Sphere};
 use std::path::Path;
 use std::process::{Command, Output};
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
-}
-
-/// The page in headless Chromium with software WebGL at 1200 × 900, its DOM dumped; stderr
-/// holds the console messages.
-fn browse_webgl(browser: &str, page: &Path) -> Output {
-    browse(
-        browser,
-        page,
-        &[
-            // SwiftShader: WebGL without a GPU (ANGLE's software backend).
-            "--use-angle=swiftshader",
-            "--enable-unsafe-swiftshader",
-            "--window-size=1200,900",
-            "--dump-dom",
-        ],
-    )
 }
 
 /// Run once the page has loaded; writes its findings into `<body data-view>`.
@@ -216,7 +200,7 @@ fn interactive_view_turns_plays_and_shows_every_class() {
     let Some(browser) = chromium() else { return };
 
     // The report as it is: it loads with a silent console.
-    let plain = browse_webgl(browser, &html);
+    let plain = browse_webgl(browser, &html, &["--dump-dom"]);
     assert!(
         plain.status.success(),
         "{}",
@@ -234,7 +218,7 @@ fn interactive_view_turns_plays_and_shows_every_class() {
         text.replace("</body>", &format!("{CHECKS}</body>")),
     )
     .unwrap();
-    let out = browse_webgl(browser, &checked);
+    let out = browse_webgl(browser, &checked, &["--dump-dom"]);
     let dom = String::from_utf8_lossy(&out.stdout);
     let findings = dom
         .split("data-view=\"")

@@ -24,6 +24,19 @@ pub fn chromium() -> Option<&'static str> {
     found
 }
 
+/// `browser` headless on `page` with software WebGL (SwiftShader, ANGLE's software backend,
+/// opted into explicitly: Chromium 156 and later log a deprecation notice to the page's console
+/// when it falls back to it by itself), a 1200 × 900 window and `args`.
+pub fn browse_webgl(browser: &str, page: &Path, args: &[&str]) -> Output {
+    let mut all = vec![
+        "--use-angle=swiftshader",
+        "--enable-unsafe-swiftshader",
+        "--window-size=1200,900",
+    ];
+    all.extend_from_slice(args);
+    browse(browser, page, &all)
+}
+
 /// `browser` headless on `page` with `args` (e.g. `--dump-dom`, a window size, software
 /// WebGL), isolated: a fresh profile, no network services; its console messages go to stderr.
 pub fn browse(browser: &str, page: &Path, args: &[&str]) -> Output {
