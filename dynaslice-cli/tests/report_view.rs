@@ -13,7 +13,7 @@ use common::succeeded;
 use dynaslice_test_support::browser::{browse_webgl, chromium};
 use dynaslice_test_support::spheres::{self, Sphere};
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
