@@ -16,7 +16,7 @@
 use dynaslice_core::Domain;
 use dynaslice_sequence::Sequence;
 
-/// Planes whose unit normals' |cosine| is at least this are parallel (0.0045° apart).
+/// Planes whose unit normals' |cosine| is at least this are parallel (within 0.008°).
 const PARALLEL: f64 = 1.0 - 1e-8;
 
 /// Two parallel planes closer than this along their normal (normalised units) are one position.
@@ -37,10 +37,10 @@ pub struct PlaneBand {
 /// `domain`'s normalised units; `None` unless every plane is parallel to the first and they lie
 /// at two positions or more.
 pub fn parallel_spacing(seq: &Sequence, domain: &Domain) -> Option<([f64; 3], f64)> {
-    let mut planes = seq.frames().iter().flat_map(|f| f.planes.iter());
-    let normal = planes.next()?.normal();
+    let planes = || seq.frames().iter().flat_map(|f| f.planes.iter());
+    let normal = planes().next()?.normal();
     let mut positions = Vec::new();
-    for plane in seq.frames().iter().flat_map(|f| f.planes.iter()) {
+    for plane in planes() {
         let n = plane.normal();
         let cos = dot(n, normal);
         if cos.abs() < PARALLEL {
