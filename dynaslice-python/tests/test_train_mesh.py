@@ -57,8 +57,12 @@ def test_mesh_of_the_trained_model(trained):
     near = radius < 0.6
     assert near.sum() > 1000
     # One Newton step confined to its lattice edge (meshes cannot fold; docs/meshing.md):
-    # within a few thousandths of the cell (0.042 here) of the zero level set.
-    assert np.abs(model.sdf(v[near], 0.5)[:, 0]).max() < 5e-3
+    # nearly every vertex within 1e-3 of the zero level set, which the lattice edge's linear
+    # interpolation alone misses (its 99th percentile is 2.4e-3 on this model, with the step
+    # 2.8e-4), and none a quarter of the cell (0.042 here) away (the worst is 5.8e-3 with the
+    # step, 3.8e-3 without: one step can overshoot on a curved edge).
+    residual = np.abs(model.sdf(v[near], 0.5)[:, 0])
+    assert np.percentile(residual, 99) < 1e-3 and residual.max() < 1e-2
     assert abs(np.median(radius[near]) - 0.40) < 0.02
     assert abs(np.median(vn[near]) - 0.1) < 0.03
     both = model.mesh(0.5, resolution=32)
