@@ -9,7 +9,7 @@
 //! products).
 
 use super::data_sampler::SampleCounts;
-use super::loss::{ContourSample, PlaneSample};
+use super::loss::{ContourSample, PlaneKind, PlaneSample};
 use super::matmul::{matmul, Mat, Op};
 use super::network::{Network, OMEGA_0};
 use super::objective::{Batch, Objective, SpaceTimeScheme};
@@ -117,7 +117,7 @@ pub fn random_batch(k: usize, counts: &SampleCounts, seed: u64) -> Batch {
             b.plane.push(PlaneSample {
                 class: c,
                 target: 0.1,
-                absent: false,
+                kind: PlaneKind::Sdf,
                 weight: 1.0 / n as f32,
             });
         }

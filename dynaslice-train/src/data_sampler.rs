@@ -1,8 +1,9 @@
 //! Training samples from a cross-section [`Sequence`]: the data-side samplers (world units)
 //! mapped into the network's normalised frame, with the per-class weights of Eq. 10.
 
-use super::loss::{ContourSample, PlaneSample};
+use super::loss::{ContourSample, PlaneKind, PlaneSample};
 use super::objective::Batch;
+use crate::extent_bound::ClassExtents;
 use crate::sampling::{
     sample_space_time, ContourBatch, PlaneBatch, PlaneSampling, PlaneTarget, SampleRng, Sampler,
     SamplingIndex, SpaceTimeBatch,
@@ -168,6 +169,10 @@ pub struct DataSampler {
     plane_split: Vec<usize>,
     /// Optional per-class weights of the contour and plane terms (1 by default).
     class_weight: Vec<f32>,
+    /// Each class's extent, beyond which space-time samples hold it outside (parallel planes).
+    extents: Option<ClassExtents>,
+    /// Each class's direct outer class, where it is drawn nested in one.
+    outer: Vec<Option<usize>>,
 }
 
 impl DataSampler {
@@ -202,6 +207,12 @@ impl DataSampler {
         });
         let index = SamplingIndex::with_progress(seq, progress);
         let lengths = index.contour_lengths();
+        // The extents change the objective: a checkpoint of a run without them (a run of an
+        // earlier version on parallel planes) does not continue with them.
+        let extents = ClassExtents::of(seq, &domain);
+        let fingerprint = extents.as_ref().map_or(fingerprint, |e| {
+            (fingerprint ^ e.margin().to_bits()).wrapping_mul(0x100_0000_01b3)
+        });
         DataSampler {
             contour_split: counts.contour_split(&lengths),
             plane_split: counts.plane_split(&lengths),
@@ -221,7 +232,21 @@ impl DataSampler {
             space: SpaceTimeBatch::default(),
             per_class: vec![0; seq.classes().len()],
             class_weight: vec![1.0; seq.classes().len()],
+            extents,
+            outer: {
+                let mut outer = vec![None; seq.classes().len()];
+                for n in seq.nesting() {
+                    outer[n.inner] = Some(n.outer);
+                }
+                outer
+            },
         }
+    }
+
+    /// The classes' extents the space-time samples respect (`None`: the planes are not all
+    /// parallel, nothing is imposed off them).
+    pub fn extents(&self) -> Option<&ClassExtents> {
+        self.extents.as_ref()
     }
 
     /// Weights each class's contour and plane terms by `weights[k]` (one finite, positive weight
@@ -281,6 +306,80 @@ impl DataSampler {
     }
 }
 
+impl DataSampler {
+    /// Appends to the plane set, for every plane sample inside a class drawn nested in another
+    /// (trained as disjoint regions: the outer is its region minus the inner's), a lower bound
+    /// of the outer there: the point's depth in the inner. The outer's own samples fall on the
+    /// hole an inner structure makes in it in proportion to its contour length, so a 12 mm node
+    /// in a BODY got none, the BODY's channel stayed inside over it, and Eq. 11 gave the node's
+    /// points to the BODY. A per-class mean per outer class.
+    fn hole_samples(&mut self, b: &mut Batch) {
+        if self.outer.iter().all(Option::is_none) {
+            return;
+        }
+        let first = b.plane.len();
+        self.per_class.fill(0);
+        for i in 0..first {
+            let s = b.plane[i];
+            let Some(outer) = self.outer[s.class as usize] else {
+                continue;
+            };
+            if s.kind != PlaneKind::Sdf || s.target >= 0.0 {
+                continue;
+            }
+            b.plane_x.push(b.plane_x[i]);
+            b.plane.push(PlaneSample {
+                class: outer as u32,
+                target: -s.target,
+                kind: PlaneKind::Outside,
+                weight: 0.0,
+            });
+            self.per_class[outer] += 1;
+        }
+        for s in &mut b.plane[first..] {
+            let c = s.class as usize;
+            s.weight = self.class_weight[c] / self.per_class[c] as f32;
+        }
+    }
+
+    /// Appends to the plane set each class's cap samples ([`ClassExtents::cap_sample`]): a
+    /// quarter of its plane samples (at least [`MIN_CAP_SAMPLES`]) around the faces of its
+    /// contours' box, each with the box's signed distance as a lower bound, a per-class mean.
+    /// Only where the planes are parallel.
+    fn cap_samples(&mut self, rng: &mut SampleRng, b: &mut Batch) {
+        let Some(extents) = &self.extents else {
+            return;
+        };
+        let (t0, t1) = self.times;
+        for (class, &n) in self.plane_split.iter().enumerate() {
+            let first = b.plane.len();
+            for _ in 0..(n / 4).max(MIN_CAP_SAMPLES) {
+                let Some((x, bound)) = extents.cap_sample(rng, class) else {
+                    break;
+                };
+                let t = self.domain.normalise([0.0; 3], rng.range(t0, t1) as f32)[3];
+                if x.iter().any(|v| v.abs() > 1.0) {
+                    continue; // beyond the domain: nothing is asked there
+                }
+                b.plane_x.push([x[0], x[1], x[2], t]);
+                b.plane.push(PlaneSample {
+                    class: class as u32,
+                    target: bound,
+                    kind: PlaneKind::Outside,
+                    weight: 0.0,
+                });
+            }
+            let drawn = b.plane.len() - first;
+            for s in &mut b.plane[first..] {
+                s.weight = self.class_weight[class] / drawn as f32;
+            }
+        }
+    }
+}
+
+/// The fewest cap samples a class gets per step.
+const MIN_CAP_SAMPLES: usize = 16;
+
 impl Sampler for DataSampler {
     fn sample(&mut self, seed: u64, step: u64, b: &mut Batch) {
         let mut rng = SampleRng::new(seed, step);
@@ -309,20 +408,43 @@ impl Sampler for DataSampler {
             Self::weighted_classes(&mut self.per_class, &self.class_weight, &self.planes.class);
         b.plane.clear();
         for (i, (class, weight)) in weighted.enumerate() {
+            let mut target = self.planes.target[i] / sigma;
+            // Inside the class, no deeper than its extent allows (near its end planes).
+            if let (Some(e), true) = (&self.extents, target < 0.0) {
+                target = target.max(-e.depth(b.plane_x[i], class as usize));
+            }
             b.plane.push(PlaneSample {
                 class,
-                target: self.planes.target[i] / sigma,
-                absent: self.planes.kind[i] == PlaneTarget::LowerBound,
+                target,
+                kind: match self.planes.kind[i] {
+                    PlaneTarget::Sdf => PlaneKind::Sdf,
+                    PlaneTarget::LowerBound => PlaneKind::Absent,
+                },
                 weight,
             });
         }
         self.normalise_into(&self.space.xyz, &self.space.t, &mut b.space_x);
+        match &self.extents {
+            Some(e) => e.lower_bounds(&b.space_x, &mut b.space_floor),
+            None => b.space_floor.clear(),
+        }
+        self.hole_samples(b);
+        self.cap_samples(&mut rng, b);
     }
 
     fn max_set_len(&self) -> usize {
         let sum = |split: &[usize]| split.iter().sum::<usize>();
+        // Plane samples, as many hole samples at most, and the cap samples.
+        let caps: usize = match &self.extents {
+            Some(_) => self
+                .plane_split
+                .iter()
+                .map(|&n| (n / 4).max(MIN_CAP_SAMPLES))
+                .sum(),
+            None => 0,
+        };
         sum(&self.contour_split)
-            .max(sum(&self.plane_split))
+            .max(2 * sum(&self.plane_split) + caps)
             .max(self.counts.space)
     }
 

@@ -272,6 +272,14 @@ pub(crate) fn fit_checked(
     ));
     let mut sampler =
         DataSampler::with_progress(seq, domain, counts, &mut |d, t| observer.indexing(d, t));
+    let extent_margin = sampler.extents().map(|e| e.margin() as f32);
+    observer.note(&match extent_margin {
+        Some(m) => format!(
+            "each class is held outside its contours' box grown by {m:.4} (half the planes' \
+             spacing): it ends where its contours end"
+        ),
+        None => "planes not all parallel: no class held to its contours' box".into(),
+    });
     if let Some(w) = &spec.class_weights {
         sampler = sampler.with_class_weights(w).map_err(|message| SpecError {
             option: "class_weights",
@@ -336,6 +344,7 @@ pub(crate) fn fit_checked(
         counts,
         temporal_factor: spec.temporal_factor(),
         class_weights: spec.class_weights.as_deref(),
+        extent_margin,
         // Classes drawn nested and trained disjoint: outputs recompose the outer from it.
         input: RunRecord {
             nesting: (!seq.nesting().is_empty()).then(|| {

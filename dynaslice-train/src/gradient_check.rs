@@ -3,7 +3,7 @@
 //! `dynaslice_test_support::reference`, whose ∇ₓf is carried by forward-mode tangents), and the
 //! trainer's f and ∇ₓf against the core's evaluation of the exported model.
 
-use super::loss::{ContourSample, LossWeights, PlaneSample};
+use super::loss::{ContourSample, LossWeights, PlaneKind, PlaneSample};
 use super::network::Network;
 use super::objective::{Batch, Objective, SpaceTimeScheme};
 use super::passes::{Tangents, Workspace};
@@ -17,8 +17,8 @@ use std::cell::Cell;
 /// The trainer's loss (Eq. 5–8) of `b` under the `reference` network, in f64, and the
 /// arguments of its kinks: for every term where |·|, a hinge or ‖·‖ switches branch (and λ of
 /// the term is not 0), the quantity whose sign picks the branch, in this order: per contour point
-/// f and ⟨∇ₓf, n⟩; per absent-class plane sample f − b; per space-time sample and channel f and
-/// ‖∇ₓf‖.
+/// f and ⟨∇ₓf, n⟩; per absent-class or outside plane sample f − b; per space-time sample and
+/// channel f and ‖∇ₓf‖, and f − b where the channel has a lower bound b there.
 fn reference_loss(reference: &Reference, b: &Batch, w: &LossWeights) -> (f64, Vec<f64>) {
     let wide = |x: [f32; 4]| x.map(|v| v as f64);
     let mut loss = 0.0;
@@ -36,21 +36,37 @@ fn reference_loss(reference: &Reference, b: &Batch, w: &LossWeights) -> (f64, Ve
     for (x, s) in b.plane_x.iter().zip(&b.plane) {
         let (f, _) = reference.normalised(wide(*x));
         let r = f[s.class as usize] - s.target as f64;
-        if s.absent && w.plane != 0.0 {
-            kinks.push(r);
+        match s.kind {
+            PlaneKind::Sdf => loss += s.weight as f64 * w.plane as f64 * r * r,
+            PlaneKind::Absent => {
+                if w.plane != 0.0 {
+                    kinks.push(r);
+                }
+                loss += s.weight as f64 * w.plane as f64 * r.min(0.0).powi(2);
+            }
+            PlaneKind::Outside => {
+                kinks.push(r);
+                loss += s.weight as f64 * (-r).max(0.0);
+            }
         }
-        let r = if s.absent { r.min(0.0) } else { r };
-        loss += s.weight as f64 * w.plane as f64 * r * r;
     }
     let n = b.space_x.len() as f64;
-    for x in &b.space_x {
+    for (i, x) in b.space_x.iter().enumerate() {
         let (f, g) = reference.normalised(wide(*x));
-        for (fc, gc) in f.iter().zip(&g) {
+        for (c, (fc, gc)) in f.iter().zip(&g).enumerate() {
             let norm = (gc[0] * gc[0] + gc[1] * gc[1] + gc[2] * gc[2]).sqrt();
             loss += w.regulariser as f64 / n
                 * ((norm - 1.0).powi(2) + (-(w.alpha as f64) * fc.abs()).exp());
             if w.regulariser != 0.0 {
                 kinks.extend([*fc, norm]);
+            }
+            let floor = b
+                .space_floor
+                .get(i * f.len() + c)
+                .map_or(f64::NEG_INFINITY, |&v| v as f64);
+            if floor.is_finite() {
+                loss += (floor - fc).max(0.0) / n;
+                kinks.push(fc - floor);
             }
         }
     }
@@ -154,8 +170,15 @@ fn batch_strategy(k: u32) -> impl Strategy<Value = Batch> {
     });
     (
         proptest::collection::vec((point(), 0..k, normal), 1..12),
-        proptest::collection::vec((point(), 0..k, -0.5f32..0.5, any::<bool>()), 1..12),
-        proptest::collection::vec(point(), 1..12),
+        proptest::collection::vec((point(), 0..k, -0.5f32..0.5, 0..3u8), 1..12),
+        // Each space-time sample's lower bound per channel: beyond the class's extent or not.
+        proptest::collection::vec(
+            (
+                point(),
+                proptest::collection::vec(proptest::option::of(-0.5f32..0.5), k as usize),
+            ),
+            1..12,
+        ),
     )
         .prop_map(|(contour, plane, space)| Batch {
             contour_x: contour.iter().map(|c| c.0).collect(),
@@ -173,11 +196,15 @@ fn batch_strategy(k: u32) -> impl Strategy<Value = Batch> {
                 .map(|p| PlaneSample {
                     class: p.1,
                     target: p.2,
-                    absent: p.3,
+                    kind: [PlaneKind::Sdf, PlaneKind::Absent, PlaneKind::Outside][p.3 as usize],
                     weight: 1.0 / plane.len() as f32,
                 })
                 .collect(),
-            space_x: space,
+            space_x: space.iter().map(|s| s.0).collect(),
+            space_floor: space
+                .iter()
+                .flat_map(|s| s.1.iter().map(|b| b.unwrap_or(f32::NEG_INFINITY)))
+                .collect(),
         })
 }
 
@@ -299,10 +326,11 @@ fn orientation_kink_within_the_step() {
         plane: vec![PlaneSample {
             class: 0,
             target: 0.0,
-            absent: false,
+            kind: PlaneKind::Sdf,
             weight: 1.0,
         }],
         space_x: vec![[0.0; 4]],
+        space_floor: Vec::new(),
     };
     let weights = LossWeights {
         orientation: 0.5921467,

@@ -10,22 +10,23 @@ use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 
 /// The loss log's header; a row is the step then these values.
-pub const CSV_HEADER: &str = "step,total,surface,orientation,plane,eikonal,spurious";
+pub const CSV_HEADER: &str = "step,total,surface,orientation,plane,eikonal,spurious,outside";
 
 /// The names of a row's values after the step, in column order, for plots.
-pub const TERM_NAMES: [&str; 6] = [
+pub const TERM_NAMES: [&str; 7] = [
     "total",
     "surface |f|",
     "orientation",
     "plane SDF",
     "eikonal",
     "spurious exp(-a|f|)",
+    "outside ReLU(b-f)",
 ];
 
 /// One step's losses: the step (1-based), then total, surface, orientation, plane, eikonal,
-/// spurious.
+/// spurious, outside.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LossRow(pub u64, pub [f64; 6]);
+pub struct LossRow(pub u64, pub [f64; 7]);
 
 impl LossRow {
     /// The row of step `step` with `terms` and weighted `total`.
@@ -39,6 +40,7 @@ impl LossRow {
                 t.plane,
                 t.eikonal,
                 t.spurious,
+                t.outside,
             ],
         )
     }
@@ -48,20 +50,23 @@ impl LossRow {
     pub fn line(&self) -> String {
         let v = self.1;
         format!(
-            "{},{},{},{},{},{},{}\n",
-            self.0, v[0], v[1], v[2], v[3], v[4], v[5]
+            "{},{},{},{},{},{},{},{}\n",
+            self.0, v[0], v[1], v[2], v[3], v[4], v[5], v[6]
         )
     }
 
-    /// The row of a CSV line, or `None` if it is not one (a torn last line).
+    /// The row of a CSV line, or `None` if it is not one (a torn last line). A row of a
+    /// journal written before the outside term existed (six values) reads with it 0.
     pub fn parse(line: &str) -> Option<LossRow> {
         let mut it = line.trim().split(',');
         let step = it.next()?.parse().ok()?;
-        let mut v = [0.0; 6];
-        for x in &mut v {
-            *x = it.next()?.parse().ok()?;
+        let values: Vec<f64> = it.map(|x| x.parse().ok()).collect::<Option<_>>()?;
+        let mut v = [0.0; 7];
+        match values.len() {
+            6 | 7 => v[..values.len()].copy_from_slice(&values),
+            _ => return None,
         }
-        it.next().is_none().then_some(LossRow(step, v))
+        Some(LossRow(step, v))
     }
 }
 
@@ -78,8 +83,8 @@ pub fn read(path: &Path, max_steps: u64) -> Result<Vec<LossRow>> {
     let Ok(file) = File::open(path) else {
         return Ok(Vec::new());
     };
-    // The longest line is 20 digits and six f64s of at most 24 characters, plus commas.
-    let max = max_steps.saturating_add(1).saturating_mul(180);
+    // The longest line is 20 digits and seven f64s of at most 24 characters, plus commas.
+    let max = max_steps.saturating_add(1).saturating_mul(200);
     let mut rows = Vec::new();
     let reader = BufReader::new(file.take(max));
     for line in reader.lines().skip(1) {
@@ -160,8 +165,10 @@ mod tests {
 
     #[test]
     fn rows_round_trip_and_torn_lines_end_the_journal() {
-        let r = LossRow(3, [0.1, 1e-30, 0.0, 2.5, 1.0 / 3.0, 7.0]);
+        let r = LossRow(3, [0.1, 1e-30, 0.0, 2.5, 1.0 / 3.0, 7.0, 0.25]);
         assert_eq!(LossRow::parse(&r.line()), Some(r));
+        let older = LossRow::parse("3,0.1,1e-30,0,2.5,0.5,7").unwrap();
+        assert_eq!(older.1[6], 0.0, "a six-value row has no outside term");
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j.csv");
         let text = format!(
@@ -179,15 +186,15 @@ mod tests {
     fn a_resumed_journal_keeps_the_rows_its_checkpoint_covers() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j.csv");
-        let v = [1.0; 6];
+        let v = [1.0; 7];
         let earlier = (1..=5).map(|s| LossRow(s, v)).collect();
         let mut j = Journal::new(Some(path.clone()), earlier);
         // Resumed from a checkpoint at step 3: rows 4 and 5 of the earlier run are dropped.
-        assert_eq!(j.record(LossRow(4, [2.0; 6])).unwrap(), Some(0));
-        assert_eq!(j.record(LossRow(5, [2.0; 6])).unwrap(), None);
+        assert_eq!(j.record(LossRow(4, [2.0; 7])).unwrap(), Some(0));
+        assert_eq!(j.record(LossRow(5, [2.0; 7])).unwrap(), None);
         let on_disk = read(&path, 100).unwrap();
         assert_eq!(on_disk.len(), 5);
-        assert_eq!(on_disk[3].1, [2.0; 6]);
+        assert_eq!(on_disk[3].1, [2.0; 7]);
         assert_eq!(j.into_rows(5), on_disk);
     }
 }

@@ -1,7 +1,9 @@
 //! DynaSlice's trainer: exact hand-written gradients of the DynaSlice loss (Eq. 5–8, 10) and Adam.
 //!
 //! - [`network`]: parameters in the core's layout, SIREN initialisation.
-//! - [`temporal_bound`]: Eq. 4, the bound ω_t^max = c·π/Δt, its initialisation and projection.
+//! - [`temporal_bound`]: Eq. 4, the bound ω_t^max = c·π/Δt, its initialisation and projection;
+//!   [`spatial_bound`]: the same across parallel planes.
+//! - [`extent_bound`]: each class's extent (its contours' box), beyond which it is held outside.
 //! - [`passes`]: forward with spatial tangents and the matching backward pass.
 //! - [`reverse_over_reverse`]: the second scheme for ∇ₓf losses, cheaper for K ≤ 2.
 //! - [`loss`]: the loss terms and their gradients with respect to f and ∇ₓf.
@@ -25,6 +27,7 @@ pub mod adam;
 pub mod bench;
 pub mod checkpoint;
 pub mod data_sampler;
+pub mod extent_bound;
 pub mod fit;
 pub mod flags;
 pub mod job;

@@ -6,7 +6,13 @@
 //! - plane samples: λ_d·(f^k − SDF2D^k)² (Eq. 7), or, on a plane annotated for k that holds no
 //!   contour of k, λ_d·ReLU(b − f^k)² with b the lower bound the sampler provides (f^k must be
 //!   positive there: the plane misses structure k);
-//! - space-time samples, every channel: λ_r·[(‖∇ₓf^k‖ − 1)² + exp(−α|f^k|)] (Eq. 8).
+//! - space-time samples, every channel: λ_r·[(‖∇ₓf^k‖ − 1)² + exp(−α|f^k|)] (Eq. 8);
+//! - where the data says class k is outside by at least b (beyond its contours' box,
+//!   [`crate::extent_bound`], on plane, cap and space-time samples; inside a class nested in it):
+//!   ReLU(b − f^k), weighted 1 as the surface term is. Not in the paper, whose planes are the
+//!   only data: these are facts of the same data off the planes, a structure ending where its
+//!   contours end, not a soft target (λ_d's squared hinge let a lung run on 25 mm past its last
+//!   plane; lab/notes/2026-12-07-clinical-extent.md).
 //!
 //! Every term is a weighted sum over samples; the samplers set the weights (1/N per set and
 //! class, times optional class weights), so the sums are the paper's expectations.
@@ -37,6 +43,8 @@ pub struct LossTerms {
     pub eikonal: f64,
     /// Σ w exp(−α|f|) on space-time samples (before λ_r).
     pub spurious: f64,
+    /// Σ w ReLU(b − f) where a class is known outside by at least b.
+    pub outside: f64,
 }
 
 impl LossTerms {
@@ -46,6 +54,7 @@ impl LossTerms {
             + w.orientation as f64 * self.orientation
             + w.plane as f64 * self.plane
             + w.regulariser as f64 * (self.eikonal + self.spurious)
+            + self.outside
     }
 
     /// Adds another partial sum (chunks are summed in a fixed order for determinism).
@@ -55,6 +64,7 @@ impl LossTerms {
         self.plane += o.plane;
         self.eikonal += o.eikonal;
         self.spurious += o.spurious;
+        self.outside += o.outside;
     }
 }
 
@@ -68,15 +78,28 @@ pub struct ContourSample {
     pub weight: f32,
 }
 
+/// What a [`PlaneSample`]'s target says.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlaneKind {
+    /// The in-plane 2D SDF (Eq. 7): λ_d·(f − target)².
+    Sdf,
+    /// The class is annotated on this plane but has no contour there: f ≥ target,
+    /// λ_d·ReLU(target − f)².
+    Absent,
+    /// The class is known outside by at least `target` (beyond its extent, or inside a class
+    /// nested in it; the point need not lie on a plane): ReLU(target − f).
+    Outside,
+}
+
 /// A plane sample of one class.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlaneSample {
     /// Class index (0-based channel).
     pub class: u32,
-    /// Target: the in-plane 2D SDF, or the lower bound when `absent`.
+    /// Target: see `kind`.
     pub target: f32,
-    /// The class is annotated on this plane but has no contour there.
-    pub absent: bool,
+    /// What the target says.
+    pub kind: PlaneKind,
     /// Weight of this sample in the sums.
     pub weight: f32,
 }
@@ -126,23 +149,40 @@ pub fn plane(
     for (i, s) in samples.iter().enumerate() {
         let c = s.class as usize;
         let r = out[i * k + c] - s.target;
-        // Absent class: only f < bound is penalised.
-        let r = if s.absent { r.min(0.0) } else { r };
-        terms.plane += (s.weight * r * r) as f64;
-        g[i * k + c] = w.plane * s.weight * 2.0 * r;
+        match s.kind {
+            PlaneKind::Sdf => {
+                terms.plane += (s.weight * r * r) as f64;
+                g[i * k + c] = w.plane * s.weight * 2.0 * r;
+            }
+            // Only f < bound is penalised.
+            PlaneKind::Absent => {
+                let r = r.min(0.0);
+                terms.plane += (s.weight * r * r) as f64;
+                g[i * k + c] = w.plane * s.weight * 2.0 * r;
+            }
+            PlaneKind::Outside => {
+                if r < 0.0 {
+                    terms.outside -= (s.weight * r) as f64;
+                    g[i * k + c] = -s.weight;
+                }
+            }
+        }
     }
     terms
 }
 
-/// Space-time terms on every channel; `weight` is the per-sample weight (1/N).
+/// Space-time terms on every channel of the stacked [F; ∂F/∂x; ∂F/∂y; ∂F/∂z] of `n` points;
+/// `weight` is the per-sample weight (1/N). `floor` holds each point's lower bound of every
+/// channel (`[i·k + c]`, −∞ for none; empty: no bounds).
 pub fn space_time(
     out: &[f32],
     k: usize,
-    n: usize,
+    floor: &[f32],
     weight: f32,
     w: &LossWeights,
     g: &mut [f32],
 ) -> LossTerms {
+    let n = out.len() / (4 * k);
     let mut terms = LossTerms::default();
     let lr = w.regulariser;
     for i in 0..n {
@@ -165,6 +205,13 @@ pub fn space_time(
             let ex = if x < EXP_CUTOFF { (-x).exp() } else { 0.0 };
             terms.spurious += (weight * ex) as f64;
             g[i * k + c] = -lr * weight * w.alpha * sign(f) * ex;
+            // Beyond the class's extent: f ≥ b.
+            if let Some(&b) = floor.get(i * k + c) {
+                if f < b {
+                    terms.outside += (weight * (b - f)) as f64;
+                    g[i * k + c] -= weight;
+                }
+            }
         }
     }
     terms

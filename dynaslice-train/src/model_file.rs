@@ -55,6 +55,9 @@ pub struct TrainedModel<'a> {
     pub temporal_factor: f32,
     /// Per-class weights of the contour and plane terms, where given.
     pub class_weights: Option<&'a [f32]>,
+    /// How far past its contours each class's extent reached (world units), where one was
+    /// imposed ([`crate::extent_bound`]).
+    pub extent_margin: Option<f32>,
     /// What was trained on: `input`, `frames`, `space` and `units` of the record (the rest is
     /// filled from the fields above).
     pub input: RunRecord,
@@ -89,6 +92,7 @@ impl TrainedModel<'_> {
             offset: Some(o.offset),
             omega_t_max: Some(o.omega_t_max),
             plane_band: o.plane_band.map(|b| b.max),
+            extent_margin: self.extent_margin,
             lr: Some((o.lr, o.lr_final)),
             warmup_steps: Some(o.warmup_steps),
             lambda_orientation: Some(l.orientation),

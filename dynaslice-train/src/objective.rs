@@ -91,6 +91,10 @@ pub struct Batch {
     pub plane: Vec<PlaneSample>,
     /// Space-time samples (x, y, z, t); each weighs 1/len.
     pub space_x: Vec<[f32; INPUT_DIM]>,
+    /// Each space-time sample's lower bound of every channel, point-major (`[i·K + k]`; −∞: no
+    /// bound): the signed distance of the class's extent ([`crate::extent_bound`]); empty where
+    /// no extent applies.
+    pub space_floor: Vec<f32>,
 }
 
 struct Worker {
@@ -196,9 +200,13 @@ impl Objective {
             }
             let c = chunk(batch.space_x.len(), parts, i);
             if !c.is_empty() {
+                let floor = batch
+                    .space_floor
+                    .get(c.start * k..c.end * k)
+                    .unwrap_or_default();
                 let x = &batch.space_x[c];
                 let out = w.space_time.forward(net, x);
-                let t = loss::space_time(out, k, x.len(), space_weight, weights, &mut w.g_out);
+                let t = loss::space_time(out, k, floor, space_weight, weights, &mut w.g_out);
                 w.terms.add(&t);
                 w.space_time.backward(net, x, &w.g_out, &mut w.grad);
             }

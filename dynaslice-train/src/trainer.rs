@@ -86,7 +86,7 @@ pub struct Progress {
 impl Progress {
     /// The step's figures by name (besides `step` and `steps`): what Python's progress callback
     /// gets.
-    pub fn figures(&self) -> [(&'static str, f64); 8] {
+    pub fn figures(&self) -> [(&'static str, f64); 9] {
         let t = &self.terms;
         [
             ("loss", self.loss),
@@ -97,6 +97,7 @@ impl Progress {
             ("plane", t.plane),
             ("eikonal", t.eikonal),
             ("spurious", t.spurious),
+            ("outside", t.outside),
         ]
     }
 }
@@ -108,8 +109,8 @@ impl std::fmt::Display for Progress {
         write!(
             f,
             "loss {:.4e} (surface {:.3e}, orientation {:.3e}, plane {:.3e}, eikonal {:.3e}, \
-             spurious {:.3e}) lr {:.2e}",
-            self.loss, t.surface, t.orientation, t.plane, t.eikonal, t.spurious, self.lr
+             spurious {:.3e}, outside {:.3e}) lr {:.2e}",
+            self.loss, t.surface, t.orientation, t.plane, t.eikonal, t.spurious, t.outside, self.lr
         )
     }
 }
@@ -356,7 +357,7 @@ fn moved(old: u64, new: u64, step: u64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::loss::{ContourSample, PlaneSample};
+    use crate::loss::{ContourSample, PlaneKind, PlaneSample};
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 
@@ -398,7 +399,7 @@ mod tests {
                 b.plane.push(PlaneSample {
                     class: 0,
                     target: sdf2d,
-                    absent: false,
+                    kind: PlaneKind::Sdf,
                     weight: 1.0 / n as f32,
                 });
                 b.space_x.push([

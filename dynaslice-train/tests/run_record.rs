@@ -51,8 +51,11 @@ fn the_trainers_metadata_is_a_run_record() {
     assert!(record.other.is_empty(), "unknown lines: {:?}", record.other);
     for key in RunRecord::KEYS {
         // A run without a time budget plans no schedule; these classes are not nested; the
-        // benchmark's planes are not all parallel, so no plane band.
-        let absent = matches!(*key, "planned_steps" | "nesting" | "plane_band");
+        // benchmark's planes are not all parallel, so no plane band and no extent.
+        let absent = matches!(
+            *key,
+            "planned_steps" | "nesting" | "plane_band" | "extent_margin"
+        );
         assert_eq!(
             text.lines().any(|l| l.starts_with(&format!("{key} = "))),
             !absent,
@@ -89,8 +92,9 @@ fn the_trainers_metadata_is_a_run_record() {
     assert!(record.final_loss.is_some_and(f64::is_finite));
 }
 
-/// A run on parallel planes records its plane band, the one `spatial_bound` gives its data;
-/// `--no-plane-band` records none.
+/// A run on parallel planes records its plane band, the one `spatial_bound` gives its data
+/// (`--no-plane-band` records none), and the margin of its classes' extents, half the planes'
+/// spacing in world units.
 #[test]
 fn a_run_on_parallel_planes_records_its_plane_band() {
     use dynaslice_train::data_sampler::domain_for;
@@ -126,6 +130,17 @@ fn a_run_on_parallel_planes_records_its_plane_band() {
     };
     let factor = TrainSpec::default().temporal_factor();
     let band = plane_band(&seq, &domain_for(&seq), factor, true).unwrap();
-    assert_eq!(record(false).plane_band, Some(band.max));
+    let banded = record(false);
+    assert_eq!(banded.plane_band, Some(band.max));
     assert_eq!(record(true).plane_band, None);
+    let planes = &seq.frames()[0].planes;
+    let normal = planes[0].normal();
+    let along =
+        |p: &dynaslice_sequence::Plane| -> f64 { (0..3).map(|i| p.origin[i] * normal[i]).sum() };
+    let spacing = (along(&planes[1]) - along(&planes[0])).abs();
+    let margin = f64::from(banded.extent_margin.unwrap());
+    assert!(
+        (margin - 0.5 * spacing).abs() < 1e-4 * spacing,
+        "{margin} against half of {spacing}"
+    );
 }

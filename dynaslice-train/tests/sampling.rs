@@ -137,6 +137,7 @@ fn plane_targets_are_exact_and_absences_are_bounds() {
     let how = PlaneSampling {
         near_fraction: 0.5,
         near_sigma: 0.05,
+        near_width_fraction: 0.5,
         absent_fraction: 0.5,
     };
     index.sample_planes(&mut rng, &[2000, 2000], &how, &mut p);

@@ -2,6 +2,7 @@
 
 use rayon::prelude::*;
 
+use dynaslice_geometry::boolean::region_area;
 use dynaslice_geometry::PolygonSdf;
 use dynaslice_sequence::{Plane, Sequence};
 
@@ -25,13 +26,18 @@ pub(crate) struct PlaneEntry {
     pub time: f64,
 }
 
-/// Per class: annotation indices, split into contoured and absent, and the contoured ones'
-/// cumulative perimeters (for drawing contour points uniformly by arc length).
+/// Per class: annotation indices, split into contoured and absent, the contoured ones'
+/// cumulative perimeters (for drawing contour points uniformly by arc length), and the class's
+/// width.
 #[derive(Debug, Default)]
 pub(crate) struct ClassEntry {
     pub contoured: Vec<usize>,
     pub absent: Vec<usize>,
     pub cum_perimeter: Vec<f64>,
+    /// The median over its contoured annotations of 2·area/perimeter (world units): a disc's
+    /// radius, a strip's or a ring's width. Near-contour samples spread no wider than a
+    /// fraction of it, so a small or thin structure's samples fall on it, not around it.
+    pub width: f64,
 }
 
 /// Precomputed sampling structures for a [`Sequence`]: a [`PolygonSdf`] for every contoured
@@ -89,6 +95,7 @@ impl SamplingIndex {
         let mut classes: Vec<ClassEntry> = (0..seq.classes().len())
             .map(|_| ClassEntry::default())
             .collect();
+        let mut widths: Vec<Vec<f64>> = vec![Vec::new(); classes.len()];
         for (i, a) in annotations.iter().enumerate() {
             let c = &mut classes[a.class as usize];
             match &a.sdf {
@@ -96,9 +103,17 @@ impl SamplingIndex {
                     let acc = c.cum_perimeter.last().copied().unwrap_or(0.0) + sdf.perimeter();
                     c.contoured.push(i);
                     c.cum_perimeter.push(acc);
+                    let (pi, ai) = jobs[i];
+                    let area = region_area(&planes[pi].plane.annotations[ai].polygons).abs();
+                    widths[a.class as usize]
+                        .push(2.0 * area / sdf.perimeter().max(f64::MIN_POSITIVE));
                 }
                 None => c.absent.push(i),
             }
+        }
+        for (c, mut w) in classes.iter_mut().zip(widths) {
+            w.sort_by(f64::total_cmp);
+            c.width = w.get(w.len() / 2).copied().unwrap_or(0.0);
         }
         SamplingIndex {
             planes,

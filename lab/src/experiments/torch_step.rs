@@ -21,7 +21,7 @@ use dynaslice_core::format::{MAX_CLASSES, MAX_WIDTH};
 use dynaslice_core::Layout;
 use dynaslice_train::bench::{self, StepReport};
 use dynaslice_train::data_sampler::SampleCounts;
-use dynaslice_train::loss::LossWeights;
+use dynaslice_train::loss::{LossWeights, PlaneKind};
 use dynaslice_train::network::{Network, OMEGA_0};
 use dynaslice_train::objective::{Batch, Objective, SpaceTimeScheme};
 use dynaslice_train::trainer::TrainOptions;
@@ -208,7 +208,7 @@ fn check_batch(k: usize, samples: usize) -> Batch {
     for (i, s) in b.plane.iter_mut().enumerate() {
         s.weight *= 0.5 + (i % 3) as f32 * 0.5;
         if i % 3 == 0 {
-            s.absent = true;
+            s.kind = PlaneKind::Absent;
             s.target = 0.05;
         } else {
             s.target = 0.3 * (i as f32 * 0.7).sin();
@@ -247,7 +247,7 @@ fn check_input(net: &Network, batch: &Batch, weights: &LossWeights) -> Value {
             "plane_x": batch.plane_x,
             "plane_class": batch.plane.iter().map(|s| s.class).collect::<Vec<_>>(),
             "plane_target": batch.plane.iter().map(|s| s.target).collect::<Vec<_>>(),
-            "plane_absent": batch.plane.iter().map(|s| s.absent).collect::<Vec<_>>(),
+            "plane_absent": batch.plane.iter().map(|s| s.kind == PlaneKind::Absent).collect::<Vec<_>>(),
             "plane_weight": batch.plane.iter().map(|s| s.weight).collect::<Vec<_>>(),
             "space_x": batch.space_x,
         },
