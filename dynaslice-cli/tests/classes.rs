@@ -71,7 +71,10 @@ fn more_structures_than_a_model_holds_are_refused_at_once_and_trained_with_label
     let model = dir.path().join("m.dsm");
     let (out, took) = train(&split, &model, &[]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && took < REFUSED_WITHIN, "{took:?}: {err}");
+    assert!(
+        !out.status.success() && took < REFUSED_WITHIN,
+        "{took:?}: {err}"
+    );
     assert!(
         err.contains(&format!("{count} distinct nonzero values (int16 voxels"))
             && err.contains("a model holds at most 64 classes")
@@ -120,7 +123,10 @@ fn an_image_given_for_its_label_map_is_refused_at_once_as_one() {
     let model = dir.path().join("m.dsm");
     let (out, took) = train(&ct, &model, &[]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && took < REFUSED_WITHIN, "{took:?}: {err}");
+    assert!(
+        !out.status.success() && took < REFUSED_WITHIN,
+        "{took:?}: {err}"
+    );
     assert!(
         err.contains("ct.nii.gz")
             && err.contains("(int16 voxels, -1024 to 3071)")
@@ -129,5 +135,9 @@ fn an_image_given_for_its_label_map_is_refused_at_once_as_one() {
             && err.contains("--labels"),
         "{err}"
     );
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "only ct.nii.gz");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "only ct.nii.gz"
+    );
 }
