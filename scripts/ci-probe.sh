@@ -25,6 +25,11 @@
 #   signals   SIGTERM mid-train then --resume: byte-identical to an uninterrupted run; SIGKILL
 #             before the first checkpoint then a plain rerun; SIGTERM to labels: no lock file or
 #             temporary left.
+#   images    (issue 50) a CT-like image given where a label map belongs (int16 noise at
+#             128×128×40 and 512×512×100) refused within 2 s saying it looks like an image;
+#             6912 labels on a 24×24×12 grid refused within 1 s; one SIGTERM while contours are
+#             traced ends train within 1 s leaving nothing; a user's file at a sidecar path
+#             (MODEL.dsm.ckpt.loss.csv) refused without --force and untouched.
 #
 # Counts: panics (exit 101 or "panicked at"), crashes (killed by a signal other than the time
 # limit's), hangs (killed by the time limit), nonsense (a bad value accepted, a non-finite
@@ -596,6 +601,86 @@ pid=$!
 sleep 1.5; kill -TERM $pid; wait $pid; rc=$?
 runs=$((runs + 1))
 [ "$rc" = 0 ] || [ -z "$(ls -A w)" ] || fail signals partial "labels after SIGTERM left $(ls -A w | tr '\n' ' ')"
+
+# ---------------------------------------------------------------- images as label maps (issue 50)
+step "images given as label maps"
+# NIfTI-1 files written by hand (no NumPy needed): DIMS, TYPE (int16 noise or int32 labels
+# 1..N, every voxel its own label, shuffled), 2 × 2 × 3 mm voxels.
+make_nifti() { # OUT NX NY NZ noise|labels|blobs
+    python3 - "$@" <<'PY'
+import os, random, struct, sys
+from array import array
+out, nx, ny, nz, kind = sys.argv[1], *map(int, sys.argv[2:5]), sys.argv[5]
+n = nx * ny * nz
+if kind == "noise":
+    datatype, bitpix, data = 4, 16, os.urandom(2 * n)
+elif kind == "labels":
+    values = list(range(1, n + 1))
+    random.Random(0).shuffle(values)
+    datatype, bitpix, data = 8, 32, array("i", values).tobytes()
+else:  # 60 labels, each voxel drawn at random: slow to trace, within a model's 64 classes
+    r = random.Random(0)
+    datatype, bitpix, data = 2, 8, bytes(r.randrange(61) for _ in range(n))
+h = bytearray(348)
+struct.pack_into("<i", h, 0, 348)
+struct.pack_into("<8h", h, 40, 3, nx, ny, nz, 1, 1, 1, 1)
+struct.pack_into("<2h", h, 70, datatype, bitpix)
+struct.pack_into("<8f", h, 76, 1, 2, 2, 3, 1, 1, 1, 1)
+struct.pack_into("<f", h, 108, 352)
+h[123] = 2  # millimetres
+h[344:348] = b"n+1\0"
+with open(out, "wb") as f:
+    f.write(bytes(h) + bytes(4) + data)
+PY
+}
+mkdir -p img
+make_nifti img/ct_small.nii 128 128 40 noise && make_nifti img/ct_large.nii 512 512 100 noise \
+    && make_nifti img/labels.nii 24 24 12 labels && make_nifti img/blobs.nii 96 96 64 blobs \
+    || { echo "cannot write the issue-50 volumes"; exit 1; }
+saved_limit=$limit
+# Hang limits, generous next to the refusal's fraction of a second; the old behaviour took
+# minutes (tracing every value's contours before the class limit was checked).
+for c in "2 img/ct_small.nii image" "2 img/ct_large.nii image" "1 img/labels.nii classes"; do
+    read -r limit input want <<<"$c"
+    rm -rf o; mkdir o
+    run train "$input" -o o/m.dsm --steps 3
+    check images fail "train $input (an image for a label map)"
+    case $want in
+        image) grep -q "seems to be an image" "$ERR" ||
+            fail images nonsense "train $input: not said to look like an image: $(tail -n 1 "$ERR")" ;;
+        *) grep -q "a model holds at most 64 classes" "$ERR" ||
+            fail images nonsense "train $input: no class count: $(tail -n 1 "$ERR")" ;;
+    esac
+    [ -z "$(ls -A o)" ] || fail images partial "train $input refused and left $(ls -A o | tr '\n' ' ')"
+done
+limit=$saved_limit
+# One SIGTERM while the contours of a 60-label map are traced (seconds of work): the run ends
+# within 1 s, says nothing was trained and leaves nothing (no model, lock file or journal).
+rm -rf o; mkdir -p o sig
+"$bin" train img/blobs.nii -o o/m.dsm --steps 3 >/dev/null 2>sig/err &
+pid=$!
+for _ in $(seq 50); do grep -q "^reading" sig/err 2>/dev/null && break; sleep 0.1; done
+sleep 0.5
+kill -TERM $pid
+sent=$(date +%s%N)
+for _ in $(seq 20); do kill -0 $pid 2>/dev/null || break; sleep 0.05; done
+took=$(( ($(date +%s%N) - sent) / 1000000 ))
+if kill -0 $pid 2>/dev/null; then
+    fail signals hangs "train: still running ${took} ms after one SIGTERM while tracing"
+    kill -KILL $pid
+fi
+wait $pid; rc=$?
+runs=$((runs + 1))
+[ "$rc" = 130 ] || fail signals nonsense "train: exit $rc after one SIGTERM while tracing (130 expected): $(tail -n 1 sig/err)"
+grep -q "nothing was trained" sig/err || fail signals nonsense "train: SIGTERM while tracing: $(tail -n 1 sig/err)"
+[ -z "$(ls -A o)" ] || fail signals partial "train after SIGTERM while tracing left $(ls -A o | tr '\n' ' ')"
+# A user's file at the loss journal's path, with no checkpoint beside it: refused, untouched.
+rm -rf w; mkdir w
+echo "a user's file" >w/m.dsm.ckpt.loss.csv
+before=$(digest w)
+run train "$slices" -o w/m.dsm --steps 20 --widths 16,16 --contour-samples 64 --plane-samples 64 --space-samples 64
+check overwrite fail "train over a user's m.dsm.ckpt.loss.csv"
+[ "$before" = "$(digest w)" ] || fail overwrite replaced "train changed a user's m.dsm.ckpt.loss.csv without --force"
 
 step "done"
 echo "probe: $runs runs in $(( $(date +%s) - started )) s: $panics panics, $crashes crashes, $hangs hangs, $nonsense accepted nonsense, $replaced files replaced without --force, $mixed mixed outputs, $lost lost outputs, $partial partial multi-file outputs, $resume failed resumes"

@@ -29,7 +29,8 @@ Beside MODEL.dsm the run writes MODEL.dsm.loss.csv (one row per step) and MODEL.
 While it goes it keeps a checkpoint MODEL.dsm.ckpt with its loss rows MODEL.dsm.ckpt.loss.csv;
 a finished run removes both, an interrupted one keeps them. Ctrl-C (or SIGTERM, SIGHUP) stops
 after the current step, saves the checkpoint and prints the command that continues the run
-(--resume). A run that would replace an existing model or discard an existing checkpoint needs
+(--resume); before the first step (reading, tracing, indexing) it ends the run at once, with
+nothing trained or written. A run that would replace an existing model or discard an existing checkpoint needs
 --force; the loss rows of a run killed before its first checkpoint do not.")]
 pub struct Args {
     #[command(flatten)]
@@ -70,11 +71,12 @@ pub fn run(a: Args) -> Result<()> {
     let spec = a.options.apply(TrainSpec::default());
     let input = a.input.spec();
     let job = Job::new(&input, &spec, &a.output, Words::COMMAND_LINE);
-    // SIGINT, SIGTERM and SIGHUP stop the run after this step, with a checkpoint.
-    let graceful = super::signals::graceful();
+    // SIGINT, SIGTERM and SIGHUP end the run at once until its first step (nothing to save),
+    // then stop it after a step, with a checkpoint (`Console::training`).
+    let before = super::signals::before_training();
     let mut console = Console::new();
     let finished = job::run(&job, &mut console);
-    drop((graceful, console));
+    drop((console, before));
     let finished = finished?;
     if finished.trained.stopped {
         bail!(
@@ -99,6 +101,8 @@ pub fn run(a: Args) -> Result<()> {
 /// stops it.
 struct Console {
     bar: Option<ProgressBar>,
+    /// From the first step on: a signal stops the run after a step, with a checkpoint.
+    graceful: Option<super::signals::Graceful>,
     last_log: Instant,
     /// The index of exact in-plane distances, built before the first step.
     indexing: Option<Bar>,
@@ -121,6 +125,7 @@ impl Console {
         });
         Console {
             bar,
+            graceful: None,
             last_log: Instant::now(),
             indexing: None,
             checking: None,
@@ -156,6 +161,10 @@ impl Observer for Console {
         } else {
             ControlFlow::Continue(())
         }
+    }
+
+    fn training(&mut self) {
+        self.graceful = Some(super::signals::graceful());
     }
 
     fn note(&mut self, line: &str) {

@@ -18,6 +18,7 @@ use std::path::{Path, PathBuf};
 use super::combine::{combine, same_time, Absence, Part};
 use super::drawn_slices::{self, PlaneMode, SparseAxes};
 use super::frame_range::FrameRange;
+use super::label_census::check_classes;
 use super::label_table::LabelTable;
 use super::label_volume::LabelVolume;
 use super::reslice::{reslice, ResliceOptions};
@@ -170,15 +171,25 @@ fn read_part(input: &Opened, options: &InputOptions) -> Result<Part> {
     let mut frame_of_reference = None;
     let (sequence, absence, generated) = match kind {
         InputKind::Nifti | InputKind::Nrrd => {
-            let (volume, own) = match kind {
+            let map = match kind {
                 InputKind::Nifti => nifti::read_labelled_volume_with(path, options.header_spacing)?,
-                _ => nrrd::read_volume(path)?,
+                _ => nrrd::read_label_map(path)?,
             };
+            // Counted in one pass before any contour is traced: an image given for its
+            // segmentation is refused in a second, not after minutes of tracing.
+            check_classes(
+                &map.volume,
+                options.frames,
+                options.reslice.labels.as_deref(),
+                &map.stored,
+            )
+            .map_err(at)?;
             // The file's own table, then the colour tables beside it, then the user's.
-            let table = own
+            let table = map
+                .table
                 .overlaid(&LabelTable::beside(path)?)
                 .overlaid(&options.table);
-            let sequence = planes_of(&volume, &table, options).map_err(at)?;
+            let sequence = planes_of(&map.volume, &table, options).map_err(at)?;
             // Frame f is at toffset + f × pixdim[4] (NIfTI; NRRD has no time origin), as
             // `--like` places a reference's frames.
             let sequence = match kind {

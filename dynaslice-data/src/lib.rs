@@ -11,6 +11,7 @@
 //! | `.seq` manifest | [`manifest::read`], read through [`input::read`] |
 //! | NIfTI label volume, resliced | [`nifti::read`] with [`reslice::ResliceOptions`] |
 //! | label names and colours (text, NIfTI XML, Slicer `.ctbl`, ITK-SNAP) | [`LabelTable`] |
+//! | a label map's classes counted, and refused past a model's limit, before any plane is cut | [`label_census`] |
 //! | DICOM RT Structure Set (RTSTRUCT) | [`rtstruct::read`] |
 //! | classes drawn one inside another: found, made disjoint for training | [`nesting`] |
 //! | a label map's planes: reslicing, drawn slices, several inputs in one | [`reslice`], [`drawn_slices`], [`combine`] |
@@ -30,6 +31,8 @@ pub mod input;
 pub mod input_flags;
 pub mod input_kind;
 pub mod input_spec;
+pub mod label_census;
+pub mod label_map;
 pub mod label_table;
 pub mod label_volume;
 pub mod limit;

@@ -24,6 +24,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use dynaslice_geometry::boolean::{difference, intersection, region_area};
+use dynaslice_geometry::Polygon;
 use dynaslice_sequence::error::{DataError, ErrorKind, Result};
 use dynaslice_sequence::nesting::validate;
 pub use dynaslice_sequence::nesting::{from_labels, to_labels, whole_structures, Nested};
@@ -118,6 +119,23 @@ impl Containment {
     }
 }
 
+/// Whether the bounding boxes of two regions' vertices overlap with positive area.
+fn boxes_overlap(a: &[Polygon], b: &[Polygon]) -> bool {
+    let bounds = |polygons: &[Polygon]| {
+        polygons.iter().flatten().fold(
+            ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+            |(lo, hi), p| {
+                (
+                    [lo[0].min(p[0]), lo[1].min(p[1])],
+                    [hi[0].max(p[0]), hi[1].max(p[1])],
+                )
+            },
+        )
+    };
+    let ((alo, ahi), (blo, bhi)) = (bounds(a), bounds(b));
+    (0..2).all(|k| alo[k] < bhi[k] && blo[k] < ahi[k])
+}
+
 /// Every ordered pair of classes whose regions share area on some plane, with how the first
 /// sits in the second.
 pub fn containments(seq: &Sequence) -> Vec<Containment> {
@@ -151,7 +169,13 @@ pub fn containments(seq: &Sequence) -> Vec<Containment> {
                     } else {
                         c.inner_area += area;
                         c.outer_area += region_area(&o.polygons);
-                        intersection(&i.polygons, &o.polygons).map_or(0.0, |r| region_area(&r))
+                        // Regions whose boxes do not overlap share no area: no boolean
+                        // operation for them (most pairs of many classes).
+                        if boxes_overlap(&i.polygons, &o.polygons) {
+                            intersection(&i.polygons, &o.polygons).map_or(0.0, |r| region_area(&r))
+                        } else {
+                            0.0
+                        }
                     };
                     let outside = ((area - shared) / area).clamp(0.0, 1.0);
                     if outside <= PLANE_TOLERANCE {

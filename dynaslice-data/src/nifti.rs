@@ -11,6 +11,8 @@ use std::path::Path;
 
 use nifti::{Endianness, NiftiHeader, NiftiType, Unit};
 
+use super::label_census::{check_classes, Stored};
+use super::label_map::LabelMap;
 use super::label_table::LabelTable;
 use super::label_volume::{det3, Geometry, LabelVolume};
 use super::nifti_stream::{NiftiStream, VolumeHeader, HEADER_SIZE};
@@ -95,14 +97,13 @@ const MAX_EXTENSION_BYTES: usize = 64 << 20;
 /// `vox_offset` (the extensions before it are skipped unread), as many bytes as the header's
 /// dimensions and datatype need, and a gzip stream is read to its end so its checksum is verified.
 pub fn read_labelled_volume(path: &Path) -> Result<(LabelVolume, LabelTable)> {
-    read_labelled_volume_with(path, HeaderSpacing::Auto)
+    read_labelled_volume_with(path, HeaderSpacing::Auto).map(|m| (m.volume, m.table))
 }
 
-/// [`read_labelled_volume`] with the voxel spacing taken as `spacing` says.
-pub fn read_labelled_volume_with(
-    path: &Path,
-    spacing: HeaderSpacing,
-) -> Result<(LabelVolume, LabelTable)> {
+/// [`read_labelled_volume`] with the voxel spacing taken as `spacing` says, and what the header
+/// says of the values: the voxel type, and an intent other than a label map's or a description
+/// naming an image ([`Stored`]).
+pub fn read_labelled_volume_with(path: &Path, spacing: HeaderSpacing) -> Result<LabelMap> {
     let at = |kind: ErrorKind| DataError::new(kind).in_file(path);
     let unreadable =
         |e: &dyn std::fmt::Display| at(ErrorKind::Nifti(format!("unreadable or truncated: {e}")));
@@ -183,7 +184,36 @@ pub fn read_labelled_volume_with(
         frame_interval: if dt == 0.0 { 1.0 } else { dt },
         labels,
     };
-    Ok((volume, table))
+    Ok(LabelMap {
+        volume,
+        table,
+        stored: stored(&header, datatype),
+    })
+}
+
+/// NIfTI intent codes that say the values are labels: none given, `NIFTI_INTENT_LABEL` and
+/// `NIFTI_INTENT_NEURONAME`.
+const LABEL_INTENTS: [i16; 3] = [0, 1002, 1003];
+
+/// What `h` says of its values: the voxel type `t`, and an image where its intent is not a
+/// label map's (an estimate, a statistic, a vector, …) or its description or intent name names
+/// one.
+fn stored(h: &NiftiHeader, t: VoxelType) -> Stored {
+    let text = |bytes: &[u8]| {
+        let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+        String::from_utf8_lossy(&bytes[..end]).into_owned()
+    };
+    let mut stored = Stored::new(t, "description", &text(&h.descrip));
+    if stored.says_image.is_none() {
+        stored = Stored::new(t, "intent name", &text(&h.intent_name));
+    }
+    if stored.says_image.is_none() && !LABEL_INTENTS.contains(&h.intent_code) {
+        stored.says_image = Some(format!(
+            "its NIfTI intent code {} is not a label map's",
+            h.intent_code
+        ));
+    }
+    stored
 }
 
 /// The label table of the header extensions in `bytes` (what lies between the 348-byte header
@@ -375,7 +405,9 @@ fn voxel_type(t: NiftiType) -> std::result::Result<VoxelType, ErrorKind> {
         NiftiType::Int64 => VoxelType::Int64,
         other => {
             return Err(ErrorKind::Nifti(format!(
-                "voxel type {other:?} is not an integer type; a label volume needs integer labels"
+                "voxel type {other:?} is not an integer type; a label volume needs integer \
+                 labels (a non-integer type holds intensities: this seems to be an image, not a \
+                 segmentation; give its label map)"
             )))
         }
     })
@@ -452,10 +484,19 @@ fn check_extent(
 }
 
 /// Reads a label volume and reslices it into a sequence (see [`super::reslice`]), `names` over
-/// the table of its header extensions.
+/// the table of its header extensions; more classes than a model holds are refused before any
+/// plane is cut ([`check_classes`]).
 pub fn read(path: &Path, options: &ResliceOptions, names: &LabelTable) -> Result<Sequence> {
-    let (volume, own) = read_labelled_volume(path)?;
-    reslice(&volume, options, &own.overlaid(names)).map_err(|e| e.in_file(path))
+    let map = read_labelled_volume_with(path, HeaderSpacing::Auto)?;
+    let at = |e: DataError| e.in_file(path);
+    check_classes(
+        &map.volume,
+        options.frames,
+        options.labels.as_deref(),
+        &map.stored,
+    )
+    .map_err(at)?;
+    reslice(&map.volume, options, &map.table.overlaid(names)).map_err(at)
 }
 
 fn dimensions(h: &NiftiHeader) -> std::result::Result<([usize; 3], usize), ErrorKind> {

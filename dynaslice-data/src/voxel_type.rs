@@ -25,6 +25,22 @@ pub enum VoxelType {
     Int64,
 }
 
+impl std::fmt::Display for VoxelType {
+    /// The type's usual name: `uint8`, `int16`, …
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            VoxelType::Uint8 => "uint8",
+            VoxelType::Int8 => "int8",
+            VoxelType::Uint16 => "uint16",
+            VoxelType::Int16 => "int16",
+            VoxelType::Uint32 => "uint32",
+            VoxelType::Int32 => "int32",
+            VoxelType::Uint64 => "uint64",
+            VoxelType::Int64 => "int64",
+        })
+    }
+}
+
 impl VoxelType {
     /// The first of `offered` whose range holds every value in `lo..=hi`, or `None`.
     pub fn narrowest(lo: i32, hi: i32, offered: &[VoxelType]) -> Option<VoxelType> {

@@ -103,7 +103,9 @@ fn an_sform_that_disagrees_with_pixdim_is_used_with_a_warning_naming_both() {
     capture();
     let Some((_dir, at)) = files() else { return };
     let disagree = at.join("disagree.nii.gz");
-    let (volume, _) = read_labelled_volume_with(&disagree, HeaderSpacing::Auto).unwrap();
+    let volume = read_labelled_volume_with(&disagree, HeaderSpacing::Auto)
+        .unwrap()
+        .volume;
     assert!(close(spacing(&volume.affine), [1.0, 1.0, 1.0]));
     let warned = warnings_about(&disagree);
     assert_eq!(warned.len(), 1, "{warned:?}");
@@ -119,12 +121,18 @@ fn an_sform_that_disagrees_with_pixdim_is_used_with_a_warning_naming_both() {
         assert!(w.contains(part), "{part:?} missing from: {w}");
     }
     // pixdim: the sform's orientation and origin, pixdim's spacing.
-    let (volume, _) = read_labelled_volume_with(&disagree, HeaderSpacing::Pixdim).unwrap();
+    let volume = read_labelled_volume_with(&disagree, HeaderSpacing::Pixdim)
+        .unwrap()
+        .volume;
     assert!(close(spacing(&volume.affine), [1.56, 1.56, 10.0]));
     assert_eq!(volume.affine[2][3], -15.0);
-    let (volume, _) = read_labelled_volume_with(&disagree, HeaderSpacing::Qform).unwrap();
+    let volume = read_labelled_volume_with(&disagree, HeaderSpacing::Qform)
+        .unwrap()
+        .volume;
     assert!(close(spacing(&volume.affine), [1.56, 1.56, 10.0]));
-    let (volume, _) = read_labelled_volume_with(&disagree, HeaderSpacing::Sform).unwrap();
+    let volume = read_labelled_volume_with(&disagree, HeaderSpacing::Sform)
+        .unwrap()
+        .volume;
     assert!(close(spacing(&volume.affine), [1.0, 1.0, 1.0]));
     // Through the input options, as `--header-spacing pixdim` gives them: 10 mm planes.
     let spec = InputSpec {
@@ -150,7 +158,9 @@ fn an_sform_that_disagrees_with_pixdim_is_used_with_a_warning_naming_both() {
         "{e}"
     );
     let qform_only = at.join("qform_only.nii.gz");
-    let (volume, _) = read_labelled_volume_with(&qform_only, HeaderSpacing::Auto).unwrap();
+    let volume = read_labelled_volume_with(&qform_only, HeaderSpacing::Auto)
+        .unwrap()
+        .volume;
     assert!(close(spacing(&volume.affine), [1.56, 1.56, 10.0]));
     assert!(warnings_about(&qform_only).is_empty());
     let e = read_labelled_volume_with(&qform_only, HeaderSpacing::Sform).unwrap_err();

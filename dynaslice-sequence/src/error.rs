@@ -183,6 +183,10 @@ pub enum ErrorKind {
     /// An invalid option value (frame range, plane counts, ...).
     #[error("invalid option: {0}")]
     Option(String),
+    /// A label map with more classes than a model holds: the count and what the values look
+    /// like (dynaslice-data's `label_census`).
+    #[error("too many classes: {0}")]
+    TooManyClasses(String),
 }
 
 /// The labels a volume holds, for a message: all of them, or the first 20 and a count.

@@ -63,9 +63,17 @@ impl RunFiles {
 
     /// Whether a run of `spec` may start with the state found on disk: an existing checkpoint
     /// needs `resume` (continue it) or `force` (discard it); a journal without a checkpoint
-    /// (a run killed before its first checkpoint) is replaced. Returns whether the run
+    /// (a run killed before its first checkpoint) is replaced; anything else at the journal's
+    /// path (a user's file, a link) needs `force`, as the model does. Returns whether the run
     /// resumes from a checkpoint.
     pub fn check_state(&self, spec: &TrainSpec) -> Result<bool> {
+        if !spec.force && !journal::is_journal(&self.journal) {
+            bail!(
+                "{} exists and is not a training run's loss journal; it would be replaced and \
+                 then removed: move it, or force to replace it (--force, force=True)",
+                self.journal.display()
+            );
+        }
         let has_checkpoint = self.checkpoint.exists();
         if has_checkpoint && !spec.resume && !spec.force {
             bail!(
@@ -119,6 +127,9 @@ pub trait Observer {
     fn step(&mut self, progress: &Progress) -> ControlFlow<()>;
     /// A line for the user (e.g. "resumed from … at step 120 of 3000").
     fn note(&mut self, line: &str);
+    /// Once, after the input is read and indexed, just before the first step: from here on
+    /// a stop ([`Observer::step`]) saves a checkpoint. Nothing by default.
+    fn training(&mut self) {}
     /// The index of exact in-plane distances being built before the first step: `done` of
     /// `total` annotations. Nothing by default.
     fn indexing(&mut self, done: usize, total: usize) {
@@ -294,6 +305,7 @@ pub(crate) fn fit_checked(
     let mut failure = None;
     let mut stopped = false;
     let checkpoint = files.map(|f| f.checkpoint.display().to_string());
+    observer.training();
     let outcome = trainer::train(&options, classes.len(), &mut sampler, |p| {
         match journal.record(LossRow::of(p.step, &p.terms, p.loss)) {
             Ok(Some(missing)) => {

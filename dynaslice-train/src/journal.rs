@@ -97,6 +97,23 @@ pub fn read(path: &Path, max_steps: u64) -> Result<Vec<LossRow>> {
     Ok(rows)
 }
 
+/// Whether `path` may be taken as a journal: nothing is there, or a regular file (not a link)
+/// whose first line is the loss log's header ([`CSV_HEADER`]), as every journal's is from its
+/// first write; a user's file there is not.
+pub fn is_journal(path: &Path) -> bool {
+    match std::fs::symlink_metadata(path) {
+        Err(e) => e.kind() == std::io::ErrorKind::NotFound,
+        Ok(m) if !m.is_file() => false,
+        Ok(_) => File::open(path).is_ok_and(|f| {
+            let mut first = String::new();
+            BufReader::new(f.take(CSV_HEADER.len() as u64 + 1))
+                .read_line(&mut first)
+                .is_ok()
+                && first.trim_end_matches('\n') == CSV_HEADER
+        }),
+    }
+}
+
 /// The journal as a run goes: rewritten at the run's first step with the rows its checkpoint
 /// covers, then one row appended (and flushed) per step.
 pub struct Journal {

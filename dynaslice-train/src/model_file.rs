@@ -124,6 +124,13 @@ mod tests {
         }
     }
 
+    /// The readers refuse a label map past the model's class limit before tracing it, by
+    /// their own copy of the limit (the input side does not depend on the core).
+    #[test]
+    fn the_readers_class_limit_is_the_model_format_s() {
+        assert_eq!(dynaslice_data::label_census::MAX_CLASSES, MAX_CLASSES);
+    }
+
     #[test]
     fn limits_of_the_format_are_checked() {
         let d = Domain::IDENTITY;

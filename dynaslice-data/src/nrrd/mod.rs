@@ -64,7 +64,7 @@
 mod read;
 mod write;
 
-pub use read::read_volume;
+pub use read::{read_label_map, read_volume};
 pub use write::{
     frame_name_test, frame_path, sequence_path, stage_segmentation, write_segmentation,
     SegmentationHeader, SequenceWriter,

@@ -6,6 +6,8 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::{flip_xy, unescape, MAX_ELEMENTS, MAX_FILE_BYTES};
+use crate::label_census::Stored;
+use crate::label_map::LabelMap;
 use crate::label_table::LabelTable;
 use crate::label_volume::{det3, LabelVolume};
 use crate::voxel_type::VoxelType;
@@ -31,11 +33,17 @@ fn nrrd(message: impl Into<String>) -> DataError {
 /// Every size in the header is checked, with overflow-checked arithmetic, against what the
 /// file can hold and against [`MAX_ELEMENTS`] before anything is allocated or decompressed.
 pub fn read_volume(path: &Path) -> Result<(LabelVolume, LabelTable)> {
+    read_label_map(path).map(|m| (m.volume, m.table))
+}
+
+/// [`read_volume`], with what the file says of its values: the voxel type, and a `content`
+/// field naming an image ([`Stored`]).
+pub fn read_label_map(path: &Path) -> Result<LabelMap> {
     let bytes = input_file::read(path, MAX_FILE_BYTES, "an NRRD file")?;
     read_bytes(path, &bytes).map_err(|e| e.in_file(path))
 }
 
-fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(LabelVolume, LabelTable)> {
+fn read_bytes(path: &Path, bytes: &[u8]) -> Result<LabelMap> {
     let header = Header::parse(path, bytes)?;
     let layout = Layout::of(path, &header)?;
     let layers = match layout.extra {
@@ -60,7 +68,15 @@ fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(LabelVolume, LabelTable)> {
             table.insert_color(s.label, color);
         }
     }
-    Ok((volume, table))
+    let content = header
+        .fields
+        .get("content")
+        .map_or("", |f| f.value.as_str());
+    Ok(LabelMap {
+        volume,
+        table,
+        stored: Stored::new(layout.voxel, "content field", content),
+    })
 }
 
 /// A `field: description` line.
@@ -291,7 +307,9 @@ fn voxel_type(f: &Field) -> Result<VoxelType> {
         "float" | "double" | "block" => {
             return Err(f.error(
                 "type",
-                "not an integer type; a label map needs integer labels",
+                "not an integer type; a label map needs integer labels (a non-integer type \
+                 holds intensities: this seems to be an image, not a segmentation; give its \
+                 label map)",
             ))
         }
         _ => return Err(f.error("type", "not an NRRD type")),
