@@ -12,6 +12,9 @@ use std::path::{Path, PathBuf};
 /// The loss log's header; a row is the step then these values.
 pub const CSV_HEADER: &str = "step,total,surface,orientation,plane,eikonal,spurious,outside";
 
+/// The header of loss logs written before the outside term existed (rows of six values).
+const CSV_HEADER_BEFORE_OUTSIDE: &str = "step,total,surface,orientation,plane,eikonal,spurious";
+
 /// The names of a row's values after the step, in column order, for plots.
 pub const TERM_NAMES: [&str; 7] = [
     "total",
@@ -98,8 +101,9 @@ pub fn read(path: &Path, max_steps: u64) -> Result<Vec<LossRow>> {
 }
 
 /// Whether `path` may be taken as a journal: nothing is there, or a regular file (not a link)
-/// whose first line is the loss log's header ([`CSV_HEADER`]), as every journal's is from its
-/// first write; a user's file there is not.
+/// whose first line is the loss log's header ([`CSV_HEADER`], or the header of a journal
+/// written before the outside term existed), as every journal's is from its first write; a
+/// user's file there is not.
 pub fn is_journal(path: &Path) -> bool {
     match std::fs::symlink_metadata(path) {
         Err(e) => e.kind() == std::io::ErrorKind::NotFound,
@@ -109,7 +113,7 @@ pub fn is_journal(path: &Path) -> bool {
             BufReader::new(f.take(CSV_HEADER.len() as u64 + 1))
                 .read_line(&mut first)
                 .is_ok()
-                && first.trim_end_matches('\n') == CSV_HEADER
+                && [CSV_HEADER, CSV_HEADER_BEFORE_OUTSIDE].contains(&first.trim_end_matches('\n'))
         }),
     }
 }
@@ -197,6 +201,21 @@ mod tests {
         let rows = read(&path, 100).unwrap();
         assert_eq!(rows.iter().map(|r| r.0).collect::<Vec<_>>(), [1, 2]);
         assert!(read(&dir.path().join("none"), 100).unwrap().is_empty());
+    }
+
+    /// A journal of this version or of one before the outside term is a journal; a user's
+    /// file at its path is not.
+    #[test]
+    fn journals_of_either_header_are_journals_and_other_files_are_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("j.csv");
+        assert!(is_journal(&path), "nothing there");
+        for header in [CSV_HEADER, CSV_HEADER_BEFORE_OUTSIDE] {
+            std::fs::write(&path, format!("{header}\n1,0.5,0.5,0,0,0,0\n")).unwrap();
+            assert!(is_journal(&path), "{header}");
+        }
+        std::fs::write(&path, "step,total\n1,2\n").unwrap();
+        assert!(!is_journal(&path), "a user's CSV");
     }
 
     #[test]
