@@ -23,7 +23,7 @@
 //! short-axis stack) do not bound a structure between their cuts, and nothing is imposed.
 
 use crate::sampling::SampleRng;
-use crate::spatial_bound::parallel_spacing;
+use crate::spatial_bound::{dot, parallel_spacing};
 use dynaslice_core::Domain;
 use dynaslice_sequence::Sequence;
 
@@ -191,25 +191,11 @@ fn orthonormal_frame(u: [f64; 3], n: [f64; 3]) -> [[f64; 3]; 3] {
     [u, v, n]
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::data_sampler::domain_for;
-    use dynaslice_synth::{slice_sequence, BenchmarkOptions, Shape};
-
-    fn benchmark(planes: (usize, usize)) -> Sequence {
-        let bench = BenchmarkOptions {
-            planes: Some(planes),
-            plane_resolution: 16,
-            volume_resolution: 8,
-            ..BenchmarkOptions::default()
-        };
-        slice_sequence(Shape::Blob, &bench).unwrap()
-    }
+    use crate::spatial_bound::tests::benchmark;
 
     /// The bound is the signed distance of the class's box, which ends half a spacing past its
     /// last plane: on that plane half a spacing deep, past it the distance; mixed planes give

@@ -93,18 +93,20 @@ pub fn project(rows: [&mut [f32]; 3], band: &PlaneBand) {
     }
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+/// The dot product of two 3-vectors.
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::data_sampler::domain_for;
     use crate::temporal_bound::DEFAULT_TEMPORAL_FACTOR;
     use dynaslice_synth::{slice_sequence, BenchmarkOptions, Shape};
 
-    fn benchmark(planes: (usize, usize)) -> Sequence {
+    /// The blob benchmark sliced by `planes` (rotated, parallel) planes per timestep.
+    pub(crate) fn benchmark(planes: (usize, usize)) -> Sequence {
         let bench = BenchmarkOptions {
             planes: Some(planes),
             plane_resolution: 16,
