@@ -169,7 +169,8 @@ pub struct DataSampler {
     plane_split: Vec<usize>,
     /// Optional per-class weights of the contour and plane terms (1 by default).
     class_weight: Vec<f32>,
-    /// Each class's extent, beyond which space-time samples hold it outside (parallel planes).
+    /// Each class's extent (parallel planes only), whose signed distance bounds the class from
+    /// below on the cap and space-time samples and caps its in-plane targets' depth.
     extents: Option<ClassExtents>,
     /// Each class's direct outer class, where it is drawn nested in one.
     outer: Vec<Option<usize>>,

@@ -5,7 +5,8 @@
 //! plane, and in the part of the model's cubic domain no plane reaches (a third of it for an
 //! axial RT Structure Set 290 mm long in a 590 mm cube), only the regulariser (Eq. 8) speaks,
 //! and a network fitted to the planes fills that space at will: a BODY cut by the scan at both
-//! ends grew to the cube's faces (7× its volume), a lung grew a second component 200 mm past its
+//! ends grew to the cube's faces (7× its volume in the case, 10× in
+//! `lab/cases/clinical_rtstruct.py`), a lung grew a second component 200 mm past its
 //! contours (lab/notes/2026-12-07-clinical-extent.md). A planning system caps a structure at
 //! its end contours, each contour standing for a slab one plane spacing thick (its volume is
 //! the contours' areas times the spacing); SlicerRT's planar-contour-to-surface conversion ends
@@ -101,9 +102,9 @@ impl ClassExtents {
     /// half the time at one of the two end faces (the caps, across the planes), else at one of
     /// the four side faces drawn by area; a point uniform on the face, moved along its normal
     /// by a distance uniform from two plane spacings inside to the cap reach outside (half the
-    /// box's longest side, at least two plane spacings). Uniform space-time samples rarely fall there (a lung's cap region is 0.1 % of
-    /// the domain), yet that is where a surface runs on past its end planes; beside the sides,
-    /// the planes themselves say where the class is not.
+    /// box's longest side, at least two plane spacings). Uniform space-time samples rarely fall
+    /// there (a lung's cap region is 0.1 % of the domain), yet that is where a surface runs on
+    /// past its end planes; beside the sides, the planes themselves say where the class is not.
     pub fn cap_sample(&self, rng: &mut SampleRng, class: usize) -> Option<([f32; 3], f32)> {
         let (lo, hi) = self.boxes.get(class)?.as_ref()?;
         let side: [f64; 3] = std::array::from_fn(|i| hi[i] - lo[i]);
