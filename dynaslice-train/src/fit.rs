@@ -16,6 +16,7 @@ use crate::spatial_bound::plane_band;
 use crate::spec::{SpecError, TrainSpec, MAX_STEPS};
 use crate::temporal_bound::temporal_bound;
 use crate::trainer::{self, Progress, TrainOptions};
+use crate::warp::motion_options;
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::ModelBytes;
 use dynaslice_model::RunRecord;
@@ -254,8 +255,10 @@ pub(crate) fn fit_checked(
         !spec.no_temporal_control,
     );
     let plane_band = plane_band(seq, &domain, spec.temporal_factor(), !spec.no_plane_band);
+    let motion = motion_options(seq, &domain, spec.no_motion, !spec.no_temporal_control);
     let options = TrainOptions {
         plane_band,
+        motion,
         ..spec.options(omega_t_max, files.map(|f| f.checkpoint.clone()))
     };
     let counts = spec.counts();

@@ -242,6 +242,12 @@ pub const NO_PLANE_BAND: Flag = switch(
     "no_plane_band",
     "Ablation: no band limit across parallel planes (ω_x unbounded along their normal)",
 );
+/// `no_motion`.
+pub const NO_MOTION: Flag = switch(
+    "no_motion",
+    "Ablation: no motion network for a moving input (each point's signed distance a smooth \
+     function of time, as for a static one)",
+);
 /// `no_orientation`.
 pub const NO_ORIENTATION: Flag =
     switch("no_orientation", "Ablation: no orientation loss (λ_n = 0)");
@@ -434,7 +440,7 @@ pub const SAMPLE_COUNTS: [&Flag; 5] = [
 ];
 
 /// Every training option, in the help's order.
-pub const FLAGS: [&Flag; 26] = [
+pub const FLAGS: [&Flag; 27] = [
     &STEPS,
     &MINUTES,
     &SEED,
@@ -443,6 +449,7 @@ pub const FLAGS: [&Flag; 26] = [
     &FORCE,
     &NO_TEMPORAL_CONTROL,
     &NO_PLANE_BAND,
+    &NO_MOTION,
     &NO_ORIENTATION,
     &WIDTHS,
     &OMEGA0,

@@ -8,6 +8,7 @@ use super::network::Network;
 use super::objective::{Batch, Objective, SpaceTimeScheme};
 use super::passes::{Tangents, Workspace};
 use super::reverse_over_reverse::ReverseWorkspace;
+use super::warp;
 use dynaslice_core::{Domain, Layout, ModelBytes};
 use dynaslice_test_support::reference::Reference;
 use proptest::prelude::*;
@@ -18,13 +19,37 @@ use std::cell::Cell;
 /// arguments of its kinks: for every term where |·|, a hinge or ‖·‖ switches branch (and λ of
 /// the term is not 0), the quantity whose sign picks the branch, in this order: per contour point
 /// f and ⟨∇ₓf, n⟩; per absent-class or outside plane sample f − b; per space-time sample and
-/// channel f and ‖∇ₓf‖, and f − b where the channel has a lower bound b there.
-fn reference_loss(reference: &Reference, b: &Batch, w: &LossWeights) -> (f64, Vec<f64>) {
+/// channel f and ‖∇ₓf‖, and f − b where the channel has a lower bound b there; with a motion
+/// network, per space-time sample det(I + J_u) − δ.
+///
+/// With `motion` (a motion model, `crate::warp`), the data terms see f(x) = g(x + u(x), t) with
+/// ∇ₓf = (I + J_u)ᵀ ∇_y g, written here directly from u's value and Jacobian; the space-time
+/// terms see g at the sample itself (a canonical point) and add u's regulariser there.
+fn reference_loss(
+    reference: &Reference,
+    motion: Option<&Reference>,
+    b: &Batch,
+    w: &LossWeights,
+) -> (f64, Vec<f64>) {
     let wide = |x: [f32; 4]| x.map(|v| v as f64);
+    // f and ∇ₓf of every channel at a data point, through the warp where there is one.
+    let field = |x: [f32; 4]| -> (Vec<f64>, Vec<[f64; 3]>) {
+        let x = wide(x);
+        let Some(motion) = motion else {
+            return reference.normalised(x);
+        };
+        let (u, j) = motion.normalised(x);
+        let (f, gy) = reference.normalised([x[0] + u[0], x[1] + u[1], x[2] + u[2], x[3]]);
+        let gx = gy
+            .iter()
+            .map(|g| std::array::from_fn(|d| g[d] + (0..3).map(|a| j[a][d] * g[a]).sum::<f64>()))
+            .collect();
+        (f, gx)
+    };
     let mut loss = 0.0;
     let mut kinks = Vec::new();
     for ((x, s), normal) in b.contour_x.iter().zip(&b.contour).zip(&b.contour_normal) {
-        let (f, g) = reference.normalised(wide(*x));
+        let (f, g) = field(*x);
         let c = s.class as usize;
         let dot: f64 = (0..3).map(|d| g[c][d] * normal[d] as f64).sum();
         loss += s.weight as f64 * (f[c].abs() + w.orientation as f64 * (-dot).max(0.0));
@@ -34,7 +59,7 @@ fn reference_loss(reference: &Reference, b: &Batch, w: &LossWeights) -> (f64, Ve
         }
     }
     for (x, s) in b.plane_x.iter().zip(&b.plane) {
-        let (f, _) = reference.normalised(wide(*x));
+        let (f, _) = field(*x);
         let r = f[s.class as usize] - s.target as f64;
         match s.kind {
             PlaneKind::Sdf => loss += s.weight as f64 * w.plane as f64 * r * r,
@@ -69,6 +94,18 @@ fn reference_loss(reference: &Reference, b: &Batch, w: &LossWeights) -> (f64, Ve
                 kinks.push(fc - floor);
             }
         }
+        if let Some(motion) = motion {
+            let (_, j) = motion.normalised(wide(*x));
+            let m: [[f64; 3]; 3] =
+                std::array::from_fn(|a| std::array::from_fn(|d| j[a][d] + f64::from(a == d)));
+            let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+            let strain: f64 = j.iter().flatten().map(|v| v * v).sum();
+            let margin = f64::from(warp::FOLD_MARGIN);
+            loss += (f64::from(warp::STRAIN_WEIGHT) * strain + (margin - det).max(0.0)) / n;
+            kinks.push(det - margin);
+        }
     }
     (loss, kinks)
 }
@@ -93,15 +130,20 @@ struct Differences {
 }
 
 impl Differences {
-    /// Central differences with step `h` (O(h²) truncation, O(ε₆₄/h) rounding).
+    /// Central differences with step `h` (O(h²) truncation, O(ε₆₄/h) rounding), over every
+    /// trained parameter in [`Network::all_params`]'s order: the shape network's, then the
+    /// motion network's.
     fn new(net: &Network, batch: &Batch, weights: &LossWeights, h: f64) -> Differences {
-        let reference = Reference::unclamped(net.layout, &net.params);
-        let (loss, kinks) = reference_loss(&reference, batch, weights);
+        let shape = Reference::unclamped(net.layout, &net.params);
+        let motion = net
+            .motion
+            .as_deref()
+            .map(|m| Reference::unclamped(m.layout, &m.params));
+        let (loss, kinks) = reference_loss(&shape, motion.as_ref(), batch, weights);
         // parameter_gradient evaluates θ + heᵢ then θ − heᵢ for i = 0, 1, …
         let calls = Cell::new(0usize);
         let crossed = Cell::new(None);
-        let gradient = reference.parameter_gradient(h, |moved| {
-            let (loss, moved_kinks) = reference_loss(moved, batch, weights);
+        let watch = |(loss, moved_kinks): (f64, Vec<f64>)| {
             let flipped = moved_kinks
                 .iter()
                 .zip(&kinks)
@@ -111,7 +153,15 @@ impl Differences {
             }
             calls.set(calls.get() + 1);
             loss
+        };
+        let mut gradient = shape.parameter_gradient(h, |moved| {
+            watch(reference_loss(moved, motion.as_ref(), batch, weights))
         });
+        if let Some(motion) = &motion {
+            gradient.extend(motion.parameter_gradient(h, |moved| {
+                watch(reference_loss(&shape, Some(moved), batch, weights))
+            }));
+        }
         Differences {
             loss,
             kinks,
@@ -141,7 +191,7 @@ fn schemes_match(
         SpaceTimeScheme::ReverseOverReverse,
     ] {
         let mut objective = Objective::with_scheme(net, 2, 16, scheme);
-        let mut grad = vec![0.0; net.params.len()];
+        let mut grad = vec![0.0; net.all_params_len()];
         let terms = objective.evaluate(net, batch, weights, &mut grad);
         let total = terms.total(weights);
         prop_assert!(
@@ -226,6 +276,28 @@ fn net_strategy() -> impl Strategy<Value = (Network, Batch)> {
         })
 }
 
+/// A motion model: [`net_strategy`]'s shape network carried by a random motion network whose
+/// output layer is not zero (the trainer starts it at zero, where most of its gradient is
+/// trivially zero), scaled so that the displacements are a fraction of the domain.
+fn motion_strategy() -> impl Strategy<Value = (Network, Batch)> {
+    (
+        net_strategy(),
+        proptest::collection::vec(3u32..10, 1..=2),
+        any::<u64>(),
+        1.0f32..10.0,
+        // Up to displacements whose Jacobian folds the warp, so the fold hinge is active in some
+        // cases (with its gradient zeroed, this test fails).
+        0.05f32..4.0,
+    )
+        .prop_map(|((net, batch), widths, seed, omega, scale)| {
+            let layout = Layout::new(&widths, 3).unwrap();
+            let mut motion = Network::siren(layout, 5.0, 0.0, omega, seed);
+            let last = layout.layer_offset(layout.num_layers() - 1);
+            motion.params[last..].iter_mut().for_each(|v| *v *= scale);
+            (net.with_motion(Some(motion)), batch)
+        })
+}
+
 proptest! {
     // proptest's default config: 256 random cases (about 7 ms each), PROPTEST_CASES overrides.
     // Until kinks were rejected, 3 random cases in 20000 failed (in a census, each with an
@@ -245,6 +317,16 @@ proptest! {
     /// to compare (`orientation_kink_within_the_step` is such a case).
     #[test]
     fn parameter_gradients_match_f64_central_differences((net, batch) in net_strategy(), lambdas in (0.0f32..2.0, 0.0f32..2.0, 0.1f32..2.0, 1.0f32..20.0)) {
+        let weights = LossWeights { orientation: lambdas.0, plane: lambdas.1, regulariser: lambdas.2, alpha: lambdas.3 };
+        let numeric = Differences::new(&net, &batch, &weights, 1e-6);
+        prop_assume!(numeric.smooth(), "a kink within reach: {:?}", numeric.crossed);
+        schemes_match(&net, &batch, &weights, &numeric)?;
+    }
+
+    /// A motion model's gradient, shape and motion parameters alike, through the warp of every
+    /// data term and the motion's regulariser (`crate::warp`), as the test above.
+    #[test]
+    fn motion_gradients_match_f64_central_differences((net, batch) in motion_strategy(), lambdas in (0.0f32..2.0, 0.0f32..2.0, 0.1f32..2.0, 1.0f32..20.0)) {
         let weights = LossWeights { orientation: lambdas.0, plane: lambdas.1, regulariser: lambdas.2, alpha: lambdas.3 };
         let numeric = Differences::new(&net, &batch, &weights, 1e-6);
         prop_assume!(numeric.smooth(), "a kink within reach: {:?}", numeric.crossed);
@@ -314,6 +396,7 @@ fn orientation_kink_within_the_step() {
         params: KINK_CASE_PARAMS.to_vec(),
         omega_t_max: 27.061483,
         plane_band: None,
+        motion: None,
     };
     let batch = Batch {
         contour_x: vec![[-0.52670485, 0.3072418, -0.45405558, 0.07004865]],

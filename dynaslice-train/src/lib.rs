@@ -46,6 +46,7 @@ pub mod spatial_bound;
 pub mod spec;
 pub mod temporal_bound;
 pub mod trainer;
+pub mod warp;
 
 #[cfg(test)]
 mod gradient_check;

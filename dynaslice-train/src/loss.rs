@@ -45,6 +45,10 @@ pub struct LossTerms {
     pub spurious: f64,
     /// Σ w ReLU(b − f) where a class is known outside by at least b.
     pub outside: f64,
+    /// A motion model's regulariser of its motion u (`crate::warp::regulariser`): Σ w
+    /// [λ_s ‖J_u‖²_F + ReLU(δ − det(I + J_u))] on space-time samples, weights included; 0
+    /// without motion.
+    pub motion: f64,
 }
 
 impl LossTerms {
@@ -55,6 +59,7 @@ impl LossTerms {
             + w.plane as f64 * self.plane
             + w.regulariser as f64 * (self.eikonal + self.spurious)
             + self.outside
+            + self.motion
     }
 
     /// Adds another partial sum (chunks are summed in a fixed order for determinism).
@@ -65,6 +70,7 @@ impl LossTerms {
         self.eikonal += o.eikonal;
         self.spurious += o.spurious;
         self.outside += o.outside;
+        self.motion += o.motion;
     }
 }
 

@@ -27,6 +27,9 @@ pub struct Network {
     pub omega_t_max: f32,
     /// The bound on ω_x across the data's parallel planes (`spatial_bound`), if they are.
     pub plane_band: Option<PlaneBand>,
+    /// The motion network u of a motion model (`crate::warp`): f(x, t) = g(x + u(x, t), t), this
+    /// network being g. `None`: f = g.
+    pub motion: Option<Box<Network>>,
 }
 
 impl Network {
@@ -81,9 +84,53 @@ impl Network {
             params,
             omega_t_max,
             plane_band: None,
+            motion: None,
         };
         net.project_band_limits();
         net
+    }
+
+    /// A motion network u: (x, t) → R³ in the normalised frame, SIREN-initialised with its own
+    /// ω₀ and ω_t^max ([`Network::siren`]) but with a zero output layer, so the motion starts as
+    /// the identity (u = 0: the model starts as the shape network alone) and its first steps
+    /// move only what the data ask to move.
+    pub fn motion_siren(widths: &[u32], omega_0: f32, omega_t_max: f32, seed: u64) -> Network {
+        let layout = Layout::new(widths, 3).expect("motion widths within the core's limits");
+        let mut net = Network::siren(layout, omega_0, 0.0, omega_t_max, seed);
+        let last = net.layout.num_layers() - 1;
+        let start = net.layout.layer_offset(last);
+        net.params[start..].fill(0.0);
+        net
+    }
+
+    /// This network carried by `motion` (see [`Network::motion`]).
+    pub fn with_motion(mut self, motion: Option<Network>) -> Network {
+        self.motion = motion.map(Box::new);
+        self
+    }
+
+    /// Every trained parameter: this network's, then its motion network's (the vector Adam and
+    /// the checkpoint hold).
+    pub fn all_params(&self) -> Vec<f32> {
+        let mut all = self.params.clone();
+        if let Some(m) = &self.motion {
+            all.extend_from_slice(&m.params);
+        }
+        all
+    }
+
+    /// Number of trained parameters ([`Network::all_params`]'s length).
+    pub fn all_params_len(&self) -> usize {
+        self.params.len() + self.motion.as_ref().map_or(0, |m| m.params.len())
+    }
+
+    /// Sets every trained parameter from `all` (laid out as [`Network::all_params`]).
+    pub fn set_all_params(&mut self, all: &[f32]) {
+        let (own, rest) = all.split_at(self.params.len());
+        self.params.copy_from_slice(own);
+        if let Some(m) = &mut self.motion {
+            m.params.copy_from_slice(rest);
+        }
     }
 
     /// This network with ω_x bounded across parallel planes (`band`), projected into it at
@@ -117,6 +164,9 @@ impl Network {
             let (x, rest) = self.params[..3 * width].split_at_mut(width);
             let (y, z) = rest.split_at_mut(width);
             spatial_bound::project([x, y, z], band);
+        }
+        if let Some(m) = &mut self.motion {
+            m.project_band_limits();
         }
     }
 

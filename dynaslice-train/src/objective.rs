@@ -8,6 +8,7 @@ use super::loss::{self, ContourSample, LossTerms, LossWeights, PlaneSample};
 use super::network::Network;
 use super::passes::{Tangents, Workspace, INPUT_DIM};
 use super::reverse_over_reverse::ReverseWorkspace;
+use super::warp::{self, WarpWorkspace};
 use rayon::prelude::*;
 
 /// How space-time samples, which need f and the whole ∇ₓf of every channel (Eq. 8), get their
@@ -101,9 +102,19 @@ struct Worker {
     directional: Workspace,
     space_time: SpaceTimeWorkspace,
     plain: Workspace,
+    motion: Option<MotionWorkspaces>,
     g_out: Vec<f32>,
     grad: Vec<f32>,
     terms: LossTerms,
+}
+
+/// A motion model's extra buffers per worker: u's passes under the contour and plane sets, and
+/// its regulariser's pass (three tangents, for J_u) on the space-time samples.
+struct MotionWorkspaces {
+    contour: WarpWorkspace,
+    plane: WarpWorkspace,
+    strain: Workspace,
+    g_strain: Vec<f32>,
 }
 
 /// Per-thread buffers for evaluating the loss; allocated once for the largest batch.
@@ -145,8 +156,14 @@ impl Objective {
                     }
                 },
                 plain: Workspace::new(net, cap, 0),
+                motion: net.motion.as_deref().map(|m| MotionWorkspaces {
+                    contour: WarpWorkspace::new(m, cap, true),
+                    plane: WarpWorkspace::new(m, cap, false),
+                    strain: Workspace::new(m, cap, 3),
+                    g_strain: vec![0.0; 12 * cap],
+                }),
                 g_out: vec![0.0; 4 * cap * k],
-                grad: vec![0.0; net.params.len()],
+                grad: vec![0.0; net.all_params_len()],
                 terms: LossTerms::default(),
             })
             .collect();
@@ -162,8 +179,8 @@ impl Objective {
             .sum()
     }
 
-    /// Loss terms of `batch`, and the gradient of the weighted total written to `grad`.
-    /// Runs on the current rayon pool.
+    /// Loss terms of `batch`, and the gradient of the weighted total written to `grad` (every
+    /// trained parameter, laid out as [`Network::all_params`]). Runs on the current rayon pool.
     pub fn evaluate(
         &mut self,
         net: &Network,
@@ -174,29 +191,49 @@ impl Objective {
         let parts = self.workers.len();
         let k = net.layout.num_classes();
         let space_weight = 1.0 / batch.space_x.len().max(1) as f32;
+        let shape_len = net.params.len();
         self.workers.par_iter_mut().enumerate().for_each(|(i, w)| {
             w.grad.fill(0.0);
             w.terms = LossTerms::default();
+            let (shape_grad, motion_grad) = w.grad.split_at_mut(shape_len);
             let c = chunk(batch.contour_x.len(), parts, i);
             if !c.is_empty() {
                 let x = &batch.contour_x[c.clone()];
-                let normals = Tangents::Along(&batch.contour_normal[c.clone()]);
-                w.directional.forward(net, x, normals);
+                let normals = &batch.contour_normal[c.clone()];
+                // With motion, g is evaluated at y = x + u along m = n + J_u n (see `warp`).
+                let (y, m) = match (&mut w.motion, net.motion.as_deref()) {
+                    (Some(ws), Some(motion)) => ws.contour.forward(motion, x, Some(normals)),
+                    _ => (x, normals),
+                };
+                let along = Tangents::Along(m);
+                w.directional.forward(net, y, along);
                 let out = w.directional.outputs(x.len());
                 let t = loss::contour(out, k, &batch.contour[c], weights, &mut w.g_out);
                 w.terms.add(&t);
-                w.directional
-                    .backward(net, x, normals, &w.g_out, &mut w.grad);
+                w.directional.backward(net, y, along, &w.g_out, shape_grad);
+                if let (Some(ws), Some(motion)) = (&mut w.motion, net.motion.as_deref()) {
+                    let pass = &w.directional;
+                    ws.contour
+                        .backward(motion, net, pass, x, Some(normals), motion_grad);
+                }
             }
             let c = chunk(batch.plane_x.len(), parts, i);
             if !c.is_empty() {
                 let x = &batch.plane_x[c.clone()];
-                w.plain.forward(net, x, Tangents::None);
+                let y = match (&mut w.motion, net.motion.as_deref()) {
+                    (Some(ws), Some(motion)) => ws.plane.forward(motion, x, None).0,
+                    _ => x,
+                };
+                w.plain.forward(net, y, Tangents::None);
                 let out = w.plain.outputs(x.len());
                 let t = loss::plane(out, k, &batch.plane[c], weights, &mut w.g_out);
                 w.terms.add(&t);
                 w.plain
-                    .backward(net, x, Tangents::None, &w.g_out, &mut w.grad);
+                    .backward(net, y, Tangents::None, &w.g_out, shape_grad);
+                if let (Some(ws), Some(motion)) = (&mut w.motion, net.motion.as_deref()) {
+                    ws.plane
+                        .backward(motion, net, &w.plain, x, None, motion_grad);
+                }
             }
             let c = chunk(batch.space_x.len(), parts, i);
             if !c.is_empty() {
@@ -205,10 +242,19 @@ impl Objective {
                     .get(c.start * k..c.end * k)
                     .unwrap_or_default();
                 let x = &batch.space_x[c];
+                // Space-time samples are canonical points of the shape g (see `warp`).
                 let out = w.space_time.forward(net, x);
                 let t = loss::space_time(out, k, floor, space_weight, weights, &mut w.g_out);
                 w.terms.add(&t);
-                w.space_time.backward(net, x, &w.g_out, &mut w.grad);
+                w.space_time.backward(net, x, &w.g_out, shape_grad);
+                if let (Some(ws), Some(motion)) = (&mut w.motion, net.motion.as_deref()) {
+                    ws.strain.forward(motion, x, Tangents::Axes);
+                    let out = ws.strain.outputs(x.len());
+                    let t = warp::regulariser(out, space_weight, &mut ws.g_strain);
+                    w.terms.add(&t);
+                    ws.strain
+                        .backward(motion, x, Tangents::Axes, &ws.g_strain, motion_grad);
+                }
             }
         });
         grad.fill(0.0);

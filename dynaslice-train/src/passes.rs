@@ -264,6 +264,45 @@ impl Workspace {
         self.g_b = g_next;
     }
 
+    /// The adjoints of the last backward pass's inputs, for a network whose input is itself
+    /// computed (the motion model's warped point, `crate::warp`): with Z₀ = X W₀ᵀ + φ and
+    /// Ż₀ = Σ_d u_d (row d of W₀ᵀ), ∂loss/∂x_d = ⟨row d of W₀ᵀ, Ḡ_Zp⟩ and ∂loss/∂u_d =
+    /// ⟨row d of W₀ᵀ, Ḡ_Ż⟩, read from the layer-0 adjoints the pass leaves in its buffer.
+    /// `g_x[i]` gets the spatial part (x, y, z) of point i's input adjoint; with one tangent
+    /// group, `g_dir[i]` gets the adjoint of its direction (zero where the pass dropped the
+    /// point's tangent rows, whose adjoint was zero).
+    pub fn input_adjoints(
+        &self,
+        net: &Network,
+        n: usize,
+        g_x: &mut [[f32; 3]],
+        g_dir: Option<&mut [[f32; 3]]>,
+    ) {
+        let (_, w0) = net.layout.layer_dims(0);
+        let wt0 = &net.params[..INPUT_DIM * w0];
+        let dot = |d: usize, row: &[f32]| -> f32 {
+            wt0[d * w0..(d + 1) * w0]
+                .iter()
+                .zip(row)
+                .map(|(a, b)| a * b)
+                .sum()
+        };
+        for (gx, row) in g_x[..n].iter_mut().zip(self.g_a.chunks_exact(w0)) {
+            *gx = std::array::from_fn(|d| dot(d, row));
+        }
+        if let Some(g_dir) = g_dir {
+            assert_eq!(
+                self.tangents, 1,
+                "a direction's adjoint needs one tangent group"
+            );
+            g_dir[..n].fill([0.0; 3]);
+            let group = &self.g_a[n * w0..(n + self.kept.len()) * w0];
+            for (&i, row) in self.kept.iter().zip(group.chunks_exact(w0)) {
+                g_dir[i] = std::array::from_fn(|d| dot(d, row));
+            }
+        }
+    }
+
     /// Points whose tangent rows the last backward pass kept (all of them with no tangents).
     pub fn kept_points(&self) -> usize {
         self.kept.len()

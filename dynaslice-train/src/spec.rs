@@ -39,6 +39,8 @@ pub struct TrainSpec {
     pub no_temporal_control: bool,
     /// Ablation: no band limit across parallel planes ([`crate::spatial_bound`]).
     pub no_plane_band: bool,
+    /// Ablation: no motion network for a moving input ([`crate::warp`]).
+    pub no_motion: bool,
     /// Ablation: no orientation loss (λ_n = 0).
     pub no_orientation: bool,
     /// Widths of the sine layers (default 4 × 256).
@@ -195,8 +197,10 @@ impl TrainSpec {
             warmup_steps: self.warmup_steps.unwrap_or(d.warmup_steps),
             loss: self.loss(),
             omega_t_max,
-            // From the data's planes: set by `fit` (`spatial_bound::plane_band`).
+            // From the data's planes and times: set by `fit` (`spatial_bound::plane_band`,
+            // `warp::motion_options`).
             plane_band: None,
+            motion: None,
             checkpoint,
             checkpoint_every: Duration::from_secs_f64(
                 self.checkpoint_minutes
@@ -244,6 +248,7 @@ impl TrainSpec {
             "force" => self.force = switch(&value).ok_or_else(wrong)?,
             "no_temporal_control" => self.no_temporal_control = switch(&value).ok_or_else(wrong)?,
             "no_plane_band" => self.no_plane_band = switch(&value).ok_or_else(wrong)?,
+            "no_motion" => self.no_motion = switch(&value).ok_or_else(wrong)?,
             "no_orientation" => self.no_orientation = switch(&value).ok_or_else(wrong)?,
             "widths" => match &value {
                 Value::Wholes(w) => {
@@ -357,6 +362,7 @@ impl Default for TrainOptions {
             },
             omega_t_max: f32::INFINITY,
             plane_band: None,
+            motion: None,
             checkpoint: None,
             checkpoint_every: Duration::from_secs_f64(CHECKPOINT_MINUTES.default.real() * 60.0),
             resume: false,

@@ -12,6 +12,7 @@ use super::objective::{Batch, Objective};
 use super::sampling::Sampler;
 use super::schedule_plan::{SchedulePlan, CALIBRATION_STEPS};
 use super::spatial_bound::PlaneBand;
+use super::warp::MotionOptions;
 use anyhow::{Context, Result};
 use dynaslice_core::Layout;
 use std::ops::ControlFlow;
@@ -58,6 +59,9 @@ pub struct TrainOptions {
     /// The bound on ω_x across the data's parallel planes, where they are
     /// ([`crate::spatial_bound`]).
     pub plane_band: Option<PlaneBand>,
+    /// The motion network of a motion model ([`crate::warp`]); `None` trains the shape network
+    /// alone, as for a static input.
+    pub motion: Option<MotionOptions>,
     /// Where to keep the checkpoint (none: no checkpoints).
     pub checkpoint: Option<PathBuf>,
     /// Wall time between checkpoints.
@@ -204,6 +208,9 @@ fn fingerprint(o: &TrainOptions, num_classes: usize, data: u64) -> u64 {
     })
 }
 
+/// Mixed into the seed of the motion network's initialisation.
+const MOTION_SEED: u64 = 0x6d6f_7469_6f6e;
+
 /// Trains a network with K = `num_classes` channels on `sampler`'s data. `on_step` sees every
 /// step and may stop the run early (e.g. on Ctrl-C); the state is checkpointed either way.
 pub fn train(
@@ -218,16 +225,25 @@ pub fn train(
         .num_threads(o.threads.max(1))
         .build()
         .context("thread pool")?;
+    let motion = o.motion.as_ref().map(|m| {
+        // Its own seed stream, so adding motion leaves the shape network's start unchanged.
+        Network::motion_siren(&m.widths, m.omega_0, m.omega_t_max, o.seed ^ MOTION_SEED)
+    });
     let mut net = Network::siren(layout, o.omega_0, o.offset, o.omega_t_max, o.seed)
-        .with_plane_band(o.plane_band);
-    let mut adam = Adam::new(net.params.len(), AdamConfig::default());
+        .with_plane_band(o.plane_band)
+        .with_motion(motion);
+    // Adam and the checkpoint hold every trained parameter: the shape network's, then the
+    // motion network's (`Network::all_params`).
+    let mut params = net.all_params();
+    let mut adam = Adam::new(params.len(), AdamConfig::default());
     let print = fingerprint(o, num_classes, sampler.fingerprint());
     let mut step = 0;
     let mut plan: Option<SchedulePlan> = None;
     if let (true, Some(path)) = (o.resume, &o.checkpoint) {
         if path.exists() {
-            let c = Checkpoint::load(path, print, net.params.len(), &adam)?;
-            net.params = c.params;
+            let c = Checkpoint::load(path, print, params.len(), &adam)?;
+            params = c.params;
+            net.set_all_params(&params);
             adam = c.adam;
             step = c.step;
             plan = c.plan;
@@ -238,18 +254,18 @@ pub fn train(
     let replan = o.time_limit.filter(|_| plan.is_none());
     let mut objective = Objective::new(&net, o.threads.max(1), sampler.max_set_len());
     let mut batch = Batch::default();
-    let mut grad = vec![0.0; net.params.len()];
+    let mut grad = vec![0.0; params.len()];
     let mut last = None;
     // The last steps' wall times, the process's first step left out (threads, caches).
     let mut recent = StepTimes::default();
     let start = Instant::now();
     let mut last_checkpoint = start;
-    let save = |net: &Network, adam: &Adam, step: u64, plan| -> Result<()> {
+    let save = |params: &[f32], adam: &Adam, step: u64, plan| -> Result<()> {
         match &o.checkpoint {
             Some(path) => Checkpoint {
                 fingerprint: print,
                 step,
-                params: net.params.clone(),
+                params: params.to_vec(),
                 adam: adam.clone(),
                 plan,
             }
@@ -267,8 +283,16 @@ pub fn train(
         sampler.sample(o.seed, step, &mut batch);
         let terms = pool.install(|| objective.evaluate(&net, &batch, &o.loss, &mut grad));
         let lr = schedule_rate(o, &current, step);
-        adam.step(&mut net.params, &grad, lr);
+        adam.step(&mut params, &grad, lr);
+        net.set_all_params(&params);
         net.project_band_limits();
+        // The projection moved some parameters: Adam's next step starts from where it put them.
+        params.clear();
+        params.extend(
+            net.params
+                .iter()
+                .chain(net.motion.iter().flat_map(|m| &m.params)),
+        );
         step += 1;
         let seconds = began.elapsed().as_secs_f64();
         recent.push(seconds, first_of_process);
@@ -301,11 +325,11 @@ pub fn train(
             break;
         }
         if last_checkpoint.elapsed() >= o.checkpoint_every {
-            save(&net, &adam, step, plan)?;
+            save(&params, &adam, step, plan)?;
             last_checkpoint = Instant::now();
         }
     }
-    save(&net, &adam, step, plan)?;
+    save(&params, &adam, step, plan)?;
     Ok(Outcome {
         network: net,
         steps_done: step,
@@ -438,6 +462,7 @@ mod tests {
             },
             omega_t_max: 10.0,
             plane_band: None,
+            motion: None,
             checkpoint,
             checkpoint_every: Duration::from_secs(3600),
             resume: true,
