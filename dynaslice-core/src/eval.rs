@@ -595,6 +595,120 @@ mod tests {
         );
     }
 
+    /// FNV-1a over the bits of every value, to pin answers exactly.
+    fn fnv(values: impl IntoIterator<Item = u32>) -> u64 {
+        values.into_iter().fold(0xcbf2_9ce4_8422_2325, |h, v| {
+            v.to_le_bytes()
+                .iter()
+                .fold(h, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
+        })
+    }
+
+    /// The files and answers of models without motion, pinned bit for bit as the code before
+    /// motion models wrote and gave them (the point path everywhere; each batch kernel on a CPU
+    /// that has it), for f32 and f16 weights: such a model is still a version-1 file and takes
+    /// exactly the old code path.
+    #[test]
+    fn answers_without_motion_are_pinned() {
+        let mut got = Vec::new();
+        for (widths, k, half) in [
+            (&[64u32, 64, 64][..], 3u32, false),
+            (&[40, 37][..], 2, true),
+        ] {
+            let mut w = ModelWriter::random_siren(widths, k, 23);
+            w.domain = crate::Domain {
+                center: [10.0, -20.0, 5.0],
+                scale: [70.0, 60.0, 50.0],
+                time_origin: 0.2,
+                time_span: 0.9,
+                output_scale: 70.0,
+            };
+            if half {
+                w.weight_type = WeightType::F16;
+            }
+            let bytes = w.to_bytes();
+            got.push(("file", fnv(bytes.iter().map(|&b| b as u32))));
+            let model = Model::from_bytes(&bytes).unwrap();
+            let k = k as usize;
+            let n = 29;
+            let (unit, s) = points(n);
+            let xyz: Vec<[f32; 3]> = unit
+                .iter()
+                .map(|u| core::array::from_fn(|i| 10.0 + u[i] * 70.0))
+                .collect();
+            let t: Vec<f32> = s.iter().map(|s| 0.2 + 0.9 * s).collect();
+            let mut bits = Vec::new();
+            for (x, &t) in xyz.iter().zip(&t) {
+                let (mut f, mut g, mut d) = (vec![0.0; k], vec![[0.0; 3]; k], vec![0.0; k]);
+                model.eval_jacobian(*x, t, &mut f, &mut g, &mut d).unwrap();
+                bits.extend(
+                    f.iter()
+                        .chain(g.iter().flatten())
+                        .chain(&d)
+                        .map(|v| v.to_bits()),
+                );
+                bits.push(model.label(*x, t));
+            }
+            got.push(("point", fnv(bits)));
+            for kernels in all_available() {
+                let mut scratch = Scratch::boxed();
+                let (mut f, mut g, mut d) =
+                    (vec![0.0; n * k], vec![[0.0; 3]; n * k], vec![0.0; n * k]);
+                for tangents in [Tangents::None, Tangents::Space, Tangents::SpaceTime] {
+                    model.blocks(
+                        kernels,
+                        &mut scratch,
+                        &xyz,
+                        &t,
+                        tangents,
+                        |first, points, rows| {
+                            let out = Outputs {
+                                f: &mut f,
+                                grad: (tangents != Tangents::None).then_some(&mut g[..]),
+                                dfdt: (tangents == Tangents::SpaceTime).then_some(&mut d[..]),
+                            };
+                            model.write_outputs(rows, first, points, tangents, out);
+                        },
+                    );
+                    let bits = f.iter().chain(g.iter().flatten()).chain(&d);
+                    got.push((kernels.name, fnv(bits.map(|v| v.to_bits()))));
+                }
+            }
+        }
+        // Computed by the code before motion models (commit 1566996); avx2 and avx512 happen
+        // to agree bit for bit at these widths.
+        let pinned: [(&str, u64); 22] = [
+            ("file", 0x4213_2ffa_6f70_7694),
+            ("point", 0xadd2_492e_b74f_3859),
+            ("portable", 0x0abf_7f31_3832_f5b7),
+            ("portable", 0xaeb8_d973_5e84_da88),
+            ("portable", 0x87cc_346b_d2c0_f0ed),
+            ("avx2", 0xf922_6552_729c_5c1d),
+            ("avx2", 0x7199_70d6_0c82_725c),
+            ("avx2", 0x6c88_bffb_0d33_5a76),
+            ("avx512", 0xf922_6552_729c_5c1d),
+            ("avx512", 0x7199_70d6_0c82_725c),
+            ("avx512", 0x6c88_bffb_0d33_5a76),
+            ("file", 0x0e9a_29b8_7267_90b6),
+            ("point", 0x68b1_bebc_d7b4_7a3e),
+            ("portable", 0xb1f4_d318_7af5_1f33),
+            ("portable", 0x32d5_322e_a5ce_b1d2),
+            ("portable", 0xcbda_6998_52dd_7ee5),
+            ("avx2", 0x045d_ae51_6120_27e5),
+            ("avx2", 0xfecc_7844_5851_59c0),
+            ("avx2", 0x420b_9830_41b7_1b16),
+            ("avx512", 0x045d_ae51_6120_27e5),
+            ("avx512", 0xfecc_7844_5851_59c0),
+            ("avx512", 0x420b_9830_41b7_1b16),
+        ];
+        let available: Vec<&str> = all_available().map(|k| k.name).collect();
+        let want: Vec<(&str, u64)> = pinned
+            .into_iter()
+            .filter(|(name, _)| ["file", "point"].contains(name) || available.contains(name))
+            .collect();
+        assert_eq!(got, want);
+    }
+
     /// Half-precision storage: the error of f against the f32 model, reported in
     /// docs/model-format.md. f16 has an 11-bit significand (relative rounding ≤ 4.9e-4), and a
     /// SIREN's output sums many such products, so |Δf| stays within ~1e-2 of an O(1) output.
