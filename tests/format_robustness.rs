@@ -15,11 +15,16 @@
 //!    accepted `b`, f32 and f16 alike. This is checked on every accepted input, including the
 //!    ones a mutation happened to leave valid.
 //!
+//! Each holds for version 1 (one network) and version 2 (a motion model: motion fields in the
+//! header, the motion network's weights after the shape network's), and version-1 files keep
+//! every motion field zero.
+//!
 //! All of it runs in a few seconds (small fixtures; the exhaustive loops are over ~1 KiB files).
 
 use dynaslice_core::format::{
-    Header, ModelWriter, WeightType, CLASS_RECORD_SIZE, HEADER_SIZE, MAGIC, MAX_CLASSES,
-    MAX_METADATA, MAX_NAME_LEN, MAX_SINE_LAYERS, MAX_WIDTH, VERSION, WEIGHT_ALIGN,
+    max_file_size, Header, ModelWriter, MotionWriter, WeightType, CLASS_RECORD_SIZE, HEADER_SIZE,
+    MAGIC, MAX_CLASSES, MAX_METADATA, MAX_NAME_LEN, MAX_SINE_LAYERS, MAX_WIDTH, VERSION,
+    VERSION_STATIC, WEIGHT_ALIGN,
 };
 use dynaslice_core::{crc32, Domain, Error, Model, ModelBytes, Scratch, UNDEFINED_LABEL};
 use proptest::prelude::*;
@@ -49,7 +54,11 @@ const OFF_METADATA_OFFSET: usize = 120;
 const OFF_METADATA_LEN: usize = 128;
 const OFF_WEIGHTS_OFFSET: usize = 136;
 const OFF_WEIGHTS_COUNT: usize = 144;
-const OFF_RESERVED: usize = 152;
+const OFF_MOTION_SINE_LAYERS: usize = 152;
+const OFF_MOTION_WIDTHS: usize = 156;
+const OFF_MOTION_OMEGA_T_MAX: usize = 188;
+const OFF_MOTION_WEIGHTS_COUNT: usize = 192;
+const OFF_RESERVED: usize = 200;
 
 // ---------------------------------------------------------------------------------------------
 // Helpers.
@@ -151,6 +160,13 @@ fn query_everything(model: &Model) {
         assert!(labels
             .iter()
             .all(|&l| l as usize <= k || l == UNDEFINED_LABEL));
+        let mut u = vec![[0.0; 3]; n];
+        model
+            .displacement_batch(&mut scratch, &xyz, &t, &mut u)
+            .unwrap();
+    }
+    for &(x, t) in &points {
+        model.displacement(x, t).unwrap();
     }
 }
 
@@ -172,6 +188,17 @@ fn fixture(weight_type: WeightType) -> ModelWriter {
     w
 }
 
+/// [`fixture`] with a motion network of widths [5, 3] (55 weights after the shape network's
+/// 108), its own ω_t^max: a version-2 file.
+fn motion_fixture(weight_type: WeightType) -> ModelWriter {
+    let mut w = fixture(weight_type);
+    w.motion = ModelWriter::random_motion(&[4], 1, &MOTION_WIDTHS, 7).motion;
+    w
+}
+
+/// The motion fixture's motion widths.
+const MOTION_WIDTHS: [u32; 2] = [5, 3];
+
 /// Section offsets the header must hold for a model of these dimensions (docs/model-format.md).
 struct Expected {
     metadata_offset: u64,
@@ -180,22 +207,40 @@ struct Expected {
     file_size: u64,
 }
 
-fn expected_sections(widths: &[u64], k: u64, metadata_len: u64, elem: u64) -> Expected {
+/// `motion`: the motion network's widths (none for version 1).
+fn expected_sections(
+    widths: &[u64],
+    k: u64,
+    motion: &[u64],
+    metadata_len: u64,
+    elem: u64,
+) -> Expected {
     let metadata_offset = HEADER_SIZE as u64 + CLASS_RECORD_SIZE as u64 * k;
     let a = WEIGHT_ALIGN as u64;
     let weights_offset = (metadata_offset + metadata_len).div_ceil(a) * a;
-    let mut fan_in = 4;
-    let mut weights_count = 0;
-    for &w in widths.iter().chain([k].iter()) {
-        weights_count += (fan_in + 1) * w;
-        fan_in = w;
-    }
+    let weights_count = param_count(widths, k);
+    let motion_count = if motion.is_empty() {
+        0
+    } else {
+        param_count(motion, 3)
+    };
     Expected {
         metadata_offset,
         weights_offset,
         weights_count,
-        file_size: weights_offset + weights_count * elem + 4,
+        file_size: weights_offset + (weights_count + motion_count) * elem + 4,
     }
+}
+
+/// Σ (fan_in + 1)·fan_out over a network's layers (docs/model-format.md).
+fn param_count(widths: &[u64], outputs: u64) -> u64 {
+    let mut fan_in = 4;
+    let mut count = 0;
+    for &w in widths.iter().chain([outputs].iter()) {
+        count += (fan_in + 1) * w;
+        fan_in = w;
+    }
+    count
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -225,18 +270,73 @@ fn header_offsets_are_the_documented_ones() {
         (offset_of!(Header, metadata_len), OFF_METADATA_LEN),
         (offset_of!(Header, weights_offset), OFF_WEIGHTS_OFFSET),
         (offset_of!(Header, weights_count), OFF_WEIGHTS_COUNT),
+        (
+            offset_of!(Header, motion_sine_layers),
+            OFF_MOTION_SINE_LAYERS,
+        ),
+        (offset_of!(Header, motion_widths), OFF_MOTION_WIDTHS),
+        (
+            offset_of!(Header, motion_omega_t_max),
+            OFF_MOTION_OMEGA_T_MAX,
+        ),
+        (
+            offset_of!(Header, motion_weights_count),
+            OFF_MOTION_WEIGHTS_COUNT,
+        ),
         (offset_of!(Header, reserved), OFF_RESERVED),
     ];
     for (i, (actual, doc)) in documented.iter().enumerate() {
         assert_eq!(actual, doc, "header field {i}");
     }
-    assert_eq!(OFF_RESERVED + 104, HEADER_SIZE);
+    assert_eq!(OFF_RESERVED + 56, HEADER_SIZE);
 
-    // And a written file holds its sections exactly where the document says.
-    for (weight_type, elem) in [(WeightType::F32, 4), (WeightType::F16, 2)] {
-        let w = fixture(weight_type);
+    // And a written file holds its sections exactly where the document says: version 1
+    // without motion (every motion field zero), version 2 with it.
+    let cases = [
+        (fixture(WeightType::F32), 4),
+        (fixture(WeightType::F16), 2),
+        (motion_fixture(WeightType::F32), 4),
+        (motion_fixture(WeightType::F16), 2),
+    ];
+    for (w, elem) in cases {
+        let weight_type = w.weight_type;
         let bytes = w.to_bytes();
-        let e = expected_sections(&[8, 6], 2, w.metadata.len() as u64, elem);
+        let motion: Vec<u64> = match &w.motion {
+            Some(m) => m.widths.iter().map(|&v| v as u64).collect(),
+            None => vec![],
+        };
+        let e = expected_sections(&[8, 6], 2, &motion, w.metadata.len() as u64, elem);
+        let motion_count = if motion.is_empty() {
+            0
+        } else {
+            param_count(&motion, 3)
+        };
+        let version = u32::from_le_bytes(bytes[OFF_VERSION..OFF_VERSION + 4].try_into().unwrap());
+        assert_eq!(version, if motion.is_empty() { 1 } else { 2 });
+        let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+        assert_eq!(u32_at(OFF_MOTION_SINE_LAYERS), motion.len() as u32);
+        for l in 0..MAX_SINE_LAYERS {
+            let want = motion.get(l).copied().unwrap_or(0) as u32;
+            assert_eq!(u32_at(OFF_MOTION_WIDTHS + 4 * l), want);
+        }
+        let omega = w.motion.as_ref().map_or(0, |m| m.omega_t_max.to_bits());
+        assert_eq!(u32_at(OFF_MOTION_OMEGA_T_MAX), omega);
+        assert_eq!(get_u64(&bytes, OFF_MOTION_WEIGHTS_COUNT), motion_count);
+        assert!(bytes[OFF_RESERVED..HEADER_SIZE].iter().all(|&b| b == 0));
+        // The motion network's first weight follows the shape network's last.
+        if let Some(m) = &w.motion {
+            let at = (e.weights_offset + e.weights_count * elem) as usize;
+            let first = &bytes[at..at + elem as usize];
+            let value = match weight_type {
+                WeightType::F32 => f32::from_le_bytes(first.try_into().unwrap()),
+                WeightType::F16 => half_to_f32(u16::from_le_bytes(first.try_into().unwrap())),
+            };
+            let want = match weight_type {
+                WeightType::F32 => m.params[0],
+                WeightType::F16 => half_to_f32(half_bits(m.params[0])),
+            };
+            assert_eq!(value.to_bits(), want.to_bits());
+        }
         assert_eq!(&bytes[..8], &MAGIC);
         assert_eq!(get_u64(&bytes, OFF_FILE_SIZE), e.file_size);
         assert_eq!(bytes.len() as u64, e.file_size);
@@ -288,9 +388,51 @@ fn half_to_f32(h: u16) -> f32 {
 #[test]
 fn fixtures_round_trip_exactly() {
     for weight_type in [WeightType::F32, WeightType::F16] {
-        let bytes = fixture(weight_type).to_bytes();
-        load(&bytes).unwrap();
+        for w in [fixture(weight_type), motion_fixture(weight_type)] {
+            let bytes = w.to_bytes();
+            load(&bytes).unwrap();
+            let copy = ModelBytes::copy_from(&bytes);
+            let model = copy.model().unwrap();
+            assert_eq!(model.motion().is_some(), w.motion.is_some());
+            if let (Some(m), Some(u)) = (&w.motion, model.motion()) {
+                let widths: Vec<u32> = u.layout().widths().iter().map(|&v| v as u32).collect();
+                assert_eq!(widths, m.widths);
+                assert_eq!(u.layout().num_classes(), 3);
+                assert_eq!(u.omega_t_max().to_bits(), m.omega_t_max.to_bits());
+                assert_eq!(u.weights().len(), m.params.len());
+            }
+        }
     }
+}
+
+/// A model without motion is written as version 1, byte for byte what the writer wrote before
+/// version 2 existed: the same bytes as its motion model with the motion dropped, apart from
+/// the version, the motion fields, the weights after the shape network's, the sizes and the CRC.
+#[test]
+fn models_without_motion_are_version_1() {
+    let still = fixture(WeightType::F32).to_bytes();
+    let moving = motion_fixture(WeightType::F32).to_bytes();
+    assert_eq!(VERSION_STATIC, 1);
+    assert_eq!(VERSION, 2);
+    assert_eq!(&still[OFF_VERSION..OFF_VERSION + 4], &1u32.to_le_bytes());
+    assert_eq!(&moving[OFF_VERSION..OFF_VERSION + 4], &2u32.to_le_bytes());
+    assert!(still[OFF_MOTION_SINE_LAYERS..HEADER_SIZE]
+        .iter()
+        .all(|&b| b == 0));
+    // Everything from the dtype to the end of the shape network's weights is shared.
+    let shape_end = still.len() - 4;
+    assert_eq!(
+        still[OFF_DTYPE..OFF_MOTION_SINE_LAYERS],
+        moving[OFF_DTYPE..OFF_MOTION_SINE_LAYERS]
+    );
+    assert_eq!(
+        still[HEADER_SIZE..shape_end],
+        moving[HEADER_SIZE..shape_end]
+    );
+    // And from_model drops nothing and adds nothing.
+    let back = ModelWriter::from_model(&ModelBytes::copy_from(&still).model().unwrap());
+    assert_eq!(back.motion, None);
+    assert_eq!(back.to_bytes(), still);
 }
 
 /// The largest model the limits allow loads, round-trips and evaluates; one past any limit is
@@ -309,6 +451,53 @@ fn limits_are_inclusive() {
     let mut f = [0.0; MAX_CLASSES];
     model.eval([0.1, 0.2, 0.3], 0.4, &mut f).unwrap();
     assert!(f.iter().all(|v| v.is_finite()));
+
+    // The largest motion network too, in the largest file: f32 weights, within
+    // `max_file_size` by less than the padding it allows for.
+    let largest_motion = ModelWriter::random_motion(&[4], 1, &widths, 2).motion;
+    w.motion = largest_motion.clone();
+    w.weight_type = WeightType::F32;
+    let bytes = w.to_bytes();
+    assert!(bytes.len() as u64 <= max_file_size());
+    assert!(max_file_size() - (bytes.len() as u64) < WEIGHT_ALIGN as u64);
+    let copy = ModelBytes::copy_from(&bytes);
+    let model = copy.model().unwrap();
+    assert_eq!(ModelWriter::from_model(&model).to_bytes(), bytes);
+    let (mut g, mut d) = ([[0.0; 3]; MAX_CLASSES], [0.0; MAX_CLASSES]);
+    model
+        .eval_jacobian([0.1, 0.2, 0.3], 0.4, &mut f, &mut g, &mut d)
+        .unwrap();
+    assert!(f
+        .iter()
+        .chain(g.iter().flatten())
+        .chain(&d)
+        .all(|v| v.is_finite()));
+    let mut motion_too_wide = fixture(WeightType::F32);
+    motion_too_wide.motion = largest_motion;
+    if let Some(m) = &mut motion_too_wide.motion {
+        m.widths[3] = MAX_WIDTH as u32 + 1;
+    }
+    assert_eq!(
+        motion_too_wide.try_to_bytes(),
+        Err(Error::BadDimension {
+            what: "motion layer width",
+            value: MAX_WIDTH as u64 + 1,
+            max: MAX_WIDTH as u64
+        })
+    );
+    let mut no_layers = motion_fixture(WeightType::F32);
+    if let Some(m) = &mut no_layers.motion {
+        m.widths.clear();
+        m.params.clear();
+    }
+    assert_eq!(
+        no_layers.try_to_bytes(),
+        Err(Error::BadDimension {
+            what: "motion sine layer count",
+            value: 0,
+            max: MAX_SINE_LAYERS as u64
+        })
+    );
 
     let too_wide = ModelWriter::random_siren(&[MAX_WIDTH as u32 + 1], 1, 1);
     assert_eq!(
@@ -332,8 +521,26 @@ fn limits_are_inclusive() {
     assert!(long_name.try_to_bytes().is_err());
 }
 
+/// A random motion network (or none) for [`arb_writer`]: 1–3 sine layers of width 1–12, an
+/// ω_t^max in [0, 100).
+fn arb_motion() -> impl Strategy<Value = Option<MotionWriter>> {
+    prop_oneof![
+        1 => Just(None),
+        1 => (prop::collection::vec(1u32..=12, 1..=3), any::<u64>(), 0f32..100.0).prop_map(
+            |(widths, seed, omega)| {
+                let mut m = ModelWriter::random_motion(&[4], 1, &widths, seed).motion;
+                if let Some(m) = &mut m {
+                    m.omega_t_max = omega;
+                }
+                m
+            }
+        ),
+    ]
+}
+
 fn arb_writer() -> impl Strategy<Value = ModelWriter> {
     (
+        arb_motion(),
         prop::collection::vec(1u32..=20, 1..=3),
         prop::collection::vec(("\\PC{0,14}", any::<i32>()), 1..=5),
         "\\PC{0,40}",
@@ -348,8 +555,9 @@ fn arb_writer() -> impl Strategy<Value = ModelWriter> {
             0f32..100.0,
         ),
     )
-        .prop_map(|(widths, classes, metadata, seed, half, d)| {
+        .prop_map(|(motion, widths, classes, metadata, seed, half, d)| {
             let mut w = ModelWriter::random_siren(&widths, classes.len() as u32, seed);
+            w.motion = motion;
             w.classes = classes;
             w.metadata = metadata;
             w.weight_type = if half {
@@ -386,12 +594,22 @@ proptest! {
         prop_assert_eq!(back.domain, w.domain);
         prop_assert_eq!(back.omega_t_max.to_bits(), w.omega_t_max.to_bits());
         prop_assert_eq!(back.weight_type, w.weight_type);
+        let rounded = |b: f32| match w.weight_type {
+            WeightType::F32 => b,
+            WeightType::F16 => half_to_f32(half_bits(b)),
+        };
+        prop_assert_eq!(back.params.len(), w.params.len());
         for (a, b) in back.params.iter().zip(&w.params) {
-            let want = match w.weight_type {
-                WeightType::F32 => *b,
-                WeightType::F16 => half_to_f32(half_bits(*b)),
-            };
-            prop_assert_eq!(a.to_bits(), want.to_bits());
+            prop_assert_eq!(a.to_bits(), rounded(*b).to_bits());
+        }
+        prop_assert_eq!(back.motion.is_some(), w.motion.is_some());
+        if let (Some(back), Some(m)) = (&back.motion, &w.motion) {
+            prop_assert_eq!(&back.widths, &m.widths);
+            prop_assert_eq!(back.omega_t_max.to_bits(), m.omega_t_max.to_bits());
+            prop_assert_eq!(back.params.len(), m.params.len());
+            for (a, b) in back.params.iter().zip(&m.params) {
+                prop_assert_eq!(a.to_bits(), rounded(*b).to_bits());
+            }
         }
     }
 }
@@ -424,8 +642,13 @@ fn half_bits(v: f32) -> u16 {
 /// header the header's layout checks all pass, so the rejection must come from the CRC.
 #[test]
 fn every_single_byte_change_is_rejected() {
-    for weight_type in [WeightType::F32, WeightType::F16] {
-        let good = fixture(weight_type).to_bytes();
+    let weight_types = [WeightType::F32, WeightType::F16];
+    for w in weight_types
+        .map(fixture)
+        .into_iter()
+        .chain(weight_types.map(motion_fixture))
+    {
+        let good = w.to_bytes();
         let mut bytes = good.clone();
         for i in 0..bytes.len() {
             for delta in 1..=255u8 {
@@ -449,8 +672,13 @@ fn every_single_byte_change_is_rejected() {
 /// are refused (even with a trailer recomputed at the new end).
 #[test]
 fn truncations_and_extensions_are_rejected() {
-    for weight_type in [WeightType::F32, WeightType::F16] {
-        let good = fixture(weight_type).to_bytes();
+    let weight_types = [WeightType::F32, WeightType::F16];
+    for w in weight_types
+        .map(fixture)
+        .into_iter()
+        .chain(weight_types.map(motion_fixture))
+    {
+        let good = w.to_bytes();
         let len = good.len() as u64;
         for cut in 0..good.len() {
             let needed = if cut < HEADER_SIZE {
@@ -523,7 +751,7 @@ fn deep_checks_reject_with_the_right_error() {
     let w = fixture(WeightType::F32);
     let good = w.to_bytes();
     let meta_len = w.metadata.len() as u64;
-    let e = expected_sections(&[8, 6], 2, meta_len, 4);
+    let e = expected_sections(&[8, 6], 2, &[], meta_len, 4);
     let meta_off = e.metadata_offset as usize;
     let weights_off = e.weights_offset as usize;
     let padding_off = meta_off + meta_len as usize;
@@ -537,10 +765,37 @@ fn deep_checks_reject_with_the_right_error() {
             |b| put_u32(b, OFF_VERSION, 0),
             Error::UnsupportedVersion(0),
         ),
+        // Version 2 needs a motion network, which this file does not describe.
         (
             "version 2",
+            |b| put_u32(b, OFF_VERSION, VERSION),
+            dim("motion sine layer count", 0, MAX_SINE_LAYERS),
+        ),
+        (
+            "version 3",
             |b| put_u32(b, OFF_VERSION, VERSION + 1),
-            Error::UnsupportedVersion(2),
+            Error::UnsupportedVersion(3),
+        ),
+        // Version 1 keeps every motion field zero (reserved bytes before version 2).
+        (
+            "v1 motion layers",
+            |b| put_u32(b, OFF_MOTION_SINE_LAYERS, 1),
+            Error::NonZeroPadding,
+        ),
+        (
+            "v1 motion width",
+            |b| put_u32(b, OFF_MOTION_WIDTHS + 8, 4),
+            Error::NonZeroPadding,
+        ),
+        (
+            "v1 motion omega -0",
+            |b| put_f32(b, OFF_MOTION_OMEGA_T_MAX, -0.0),
+            Error::NonZeroPadding,
+        ),
+        (
+            "v1 motion weight count",
+            |b| put_u64(b, OFF_MOTION_WEIGHTS_COUNT, 55),
+            Error::NonZeroPadding,
         ),
         (
             "header size",
@@ -876,7 +1131,7 @@ fn deep_checks_reject_with_the_right_error() {
 fn consistent_header_for_a_huge_model_is_truncated() {
     let mut bytes = fixture(WeightType::F32).to_bytes();
     let widths = [MAX_WIDTH as u64; MAX_SINE_LAYERS];
-    let e = expected_sections(&widths, MAX_CLASSES as u64, MAX_METADATA as u64, 4);
+    let e = expected_sections(&widths, MAX_CLASSES as u64, &[], MAX_METADATA as u64, 4);
     put_u32(&mut bytes, OFF_NUM_SINE_LAYERS, MAX_SINE_LAYERS as u32);
     for l in 0..MAX_SINE_LAYERS {
         put_u32(&mut bytes, OFF_WIDTHS + 4 * l, MAX_WIDTH as u32);
@@ -888,6 +1143,192 @@ fn consistent_header_for_a_huge_model_is_truncated() {
     put_u64(&mut bytes, OFF_WEIGHTS_COUNT, e.weights_count);
     put_u64(&mut bytes, OFF_FILE_SIZE, e.file_size);
     fix_crc(&mut bytes);
+    assert_eq!(
+        load(&bytes),
+        Err(Error::Truncated {
+            needed: e.file_size,
+            available: bytes.len() as u64
+        })
+    );
+}
+
+/// The version-2 fields of the motion fixture, each damaged (its CRC then recomputed), with the
+/// exact error; and the huge-model header of a version-2 file, truncated from the header alone.
+#[test]
+fn motion_fields_reject_with_the_right_error() {
+    let w = motion_fixture(WeightType::F32);
+    let good = w.to_bytes();
+    let e = expected_sections(&[8, 6], 2, &[5, 3], w.metadata.len() as u64, 4);
+    assert_eq!(e.weights_count, 108);
+    assert_eq!(param_count(&[5, 3], 3), 55);
+    let cases: Vec<(&str, Edit, Error)> = vec![
+        (
+            "version 1",
+            |b| put_u32(b, OFF_VERSION, 1),
+            Error::NonZeroPadding,
+        ),
+        (
+            "version 3",
+            |b| put_u32(b, OFF_VERSION, 3),
+            Error::UnsupportedVersion(3),
+        ),
+        (
+            "0 motion layers",
+            |b| put_u32(b, OFF_MOTION_SINE_LAYERS, 0),
+            dim("motion sine layer count", 0, MAX_SINE_LAYERS),
+        ),
+        (
+            "9 motion layers",
+            |b| put_u32(b, OFF_MOTION_SINE_LAYERS, 9),
+            dim("motion sine layer count", 9, MAX_SINE_LAYERS),
+        ),
+        (
+            "2^32-1 motion layers",
+            |b| put_u32(b, OFF_MOTION_SINE_LAYERS, u32::MAX),
+            dim("motion sine layer count", u32::MAX as u64, MAX_SINE_LAYERS),
+        ),
+        (
+            "3 motion layers",
+            |b| put_u32(b, OFF_MOTION_SINE_LAYERS, 3),
+            dim("motion layer width", 0, MAX_WIDTH),
+        ),
+        (
+            "1 motion layer",
+            |b| put_u32(b, OFF_MOTION_SINE_LAYERS, 1),
+            Error::NonZeroPadding,
+        ),
+        (
+            "motion width 0",
+            |b| put_u32(b, OFF_MOTION_WIDTHS, 0),
+            dim("motion layer width", 0, MAX_WIDTH),
+        ),
+        (
+            "motion width 513",
+            |b| put_u32(b, OFF_MOTION_WIDTHS + 4, 513),
+            dim("motion layer width", 513, MAX_WIDTH),
+        ),
+        (
+            "motion width 2^32-1",
+            |b| put_u32(b, OFF_MOTION_WIDTHS, u32::MAX),
+            dim("motion layer width", u32::MAX as u64, MAX_WIDTH),
+        ),
+        (
+            "motion width 512",
+            |b| put_u32(b, OFF_MOTION_WIDTHS, 512),
+            Error::BadLayout("motion weight count does not match the motion layer widths"),
+        ),
+        (
+            "unused motion width",
+            |b| put_u32(b, OFF_MOTION_WIDTHS + 4 * 7, 1),
+            Error::NonZeroPadding,
+        ),
+        (
+            "motion weight count 0",
+            |b| put_u64(b, OFF_MOTION_WEIGHTS_COUNT, 0),
+            Error::BadLayout("motion weight count does not match the motion layer widths"),
+        ),
+        (
+            "motion weight count +1",
+            |b| put_u64(b, OFF_MOTION_WEIGHTS_COUNT, 56),
+            Error::BadLayout("motion weight count does not match the motion layer widths"),
+        ),
+        (
+            "motion weight count 2^64-1",
+            |b| put_u64(b, OFF_MOTION_WEIGHTS_COUNT, u64::MAX),
+            Error::BadLayout("motion weight count does not match the motion layer widths"),
+        ),
+        // The shape network's count holding both networks' weights is still wrong.
+        (
+            "shape weight count + motion's",
+            |b| put_u64(b, OFF_WEIGHTS_COUNT, 108 + 55),
+            Error::BadLayout("weight count does not match the layer widths"),
+        ),
+        (
+            "file size without the motion weights",
+            |b| {
+                let v = get_u64(b, OFF_FILE_SIZE);
+                put_u64(b, OFF_FILE_SIZE, v - 55 * 4)
+            },
+            Error::BadLayout("file size does not match the dimensions"),
+        ),
+        (
+            "motion omega -1",
+            |b| put_f32(b, OFF_MOTION_OMEGA_T_MAX, -1.0),
+            Error::BadHeaderValue("motion omega_t_max is not a non-negative finite number"),
+        ),
+        (
+            "motion omega NaN",
+            |b| put_f32(b, OFF_MOTION_OMEGA_T_MAX, f32::NAN),
+            Error::BadHeaderValue("motion omega_t_max is not a non-negative finite number"),
+        ),
+        (
+            "motion omega -inf",
+            |b| put_f32(b, OFF_MOTION_OMEGA_T_MAX, f32::NEG_INFINITY),
+            Error::BadHeaderValue("motion omega_t_max is not a non-negative finite number"),
+        ),
+        (
+            "reserved first",
+            |b| b[OFF_RESERVED] = 1,
+            Error::NonZeroPadding,
+        ),
+        (
+            "reserved last",
+            |b| b[HEADER_SIZE - 1] = 1,
+            Error::NonZeroPadding,
+        ),
+        (
+            "first motion weight NaN",
+            |b| {
+                let at = get_u64(b, OFF_WEIGHTS_OFFSET) as usize + 108 * 4;
+                put_f32(b, at, f32::NAN)
+            },
+            Error::NonFiniteWeight { index: 108 },
+        ),
+        (
+            "last motion weight inf",
+            |b| {
+                let at = b.len() - 8;
+                put_f32(b, at, f32::INFINITY)
+            },
+            Error::NonFiniteWeight {
+                index: 108 + 55 - 1,
+            },
+        ),
+    ];
+    for (name, edit, want) in cases {
+        let mut bytes = good.clone();
+        edit(&mut bytes);
+        assert_ne!(bytes, good, "{name}: the edit changed nothing");
+        fix_crc(&mut bytes);
+        assert_eq!(load(&bytes), Err(want), "{name}");
+        let mut stale = good.clone();
+        edit(&mut stale);
+        assert!(load(&stale).is_err(), "{name} with a stale CRC");
+    }
+
+    // A self-consistent version-2 header for the largest model on this small buffer.
+    let mut bytes = good.clone();
+    let widths = [MAX_WIDTH as u64; MAX_SINE_LAYERS];
+    let e = expected_sections(&widths, MAX_CLASSES as u64, &widths, MAX_METADATA as u64, 4);
+    put_u32(&mut bytes, OFF_NUM_SINE_LAYERS, MAX_SINE_LAYERS as u32);
+    put_u32(&mut bytes, OFF_MOTION_SINE_LAYERS, MAX_SINE_LAYERS as u32);
+    for l in 0..MAX_SINE_LAYERS {
+        put_u32(&mut bytes, OFF_WIDTHS + 4 * l, MAX_WIDTH as u32);
+        put_u32(&mut bytes, OFF_MOTION_WIDTHS + 4 * l, MAX_WIDTH as u32);
+    }
+    put_u32(&mut bytes, OFF_NUM_CLASSES, MAX_CLASSES as u32);
+    put_u64(&mut bytes, OFF_METADATA_LEN, MAX_METADATA as u64);
+    put_u64(&mut bytes, OFF_METADATA_OFFSET, e.metadata_offset);
+    put_u64(&mut bytes, OFF_WEIGHTS_OFFSET, e.weights_offset);
+    put_u64(&mut bytes, OFF_WEIGHTS_COUNT, e.weights_count);
+    put_u64(
+        &mut bytes,
+        OFF_MOTION_WEIGHTS_COUNT,
+        param_count(&widths, 3),
+    );
+    put_u64(&mut bytes, OFF_FILE_SIZE, e.file_size);
+    fix_crc(&mut bytes);
+    assert!(e.file_size <= max_file_size());
     assert_eq!(
         load(&bytes),
         Err(Error::Truncated {
@@ -923,11 +1364,12 @@ proptest! {
     fn random_bytes_never_panic(
         mut bytes in prop::collection::vec(any::<u8>(), 0..1200),
         prefix in 0usize..3,
+        version in prop::sample::select(vec![VERSION_STATIC, VERSION]),
         crc in any::<bool>(),
     ) {
         if prefix >= 1 && bytes.len() >= 12 {
             bytes[..8].copy_from_slice(&MAGIC);
-            put_u32(&mut bytes, OFF_VERSION, VERSION);
+            put_u32(&mut bytes, OFF_VERSION, version);
         }
         if prefix >= 2 && bytes.len() >= 16 {
             put_u32(&mut bytes, OFF_HEADER_SIZE, HEADER_SIZE as u32);
@@ -945,11 +1387,16 @@ proptest! {
     #[test]
     fn mutated_files_never_panic(
         half in any::<bool>(),
+        motion in any::<bool>(),
         writes in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 0..8),
         resize in prop_oneof![4 => Just(None), 1 => (0usize..2000).prop_map(Some)],
         crc in any::<bool>(),
     ) {
-        let good = fixture(if half { WeightType::F16 } else { WeightType::F32 }).to_bytes();
+        let weight_type = if half { WeightType::F16 } else { WeightType::F32 };
+        let good = match motion {
+            true => motion_fixture(weight_type),
+            false => fixture(weight_type),
+        }.to_bytes();
         let mut bytes = good.clone();
         for (at, v) in &writes {
             let i = at.index(bytes.len());
@@ -978,7 +1425,8 @@ proptest! {
     #[test]
     fn header_fields_with_fixed_crc_never_panic(
         half in any::<bool>(),
-        fields in prop::collection::vec(arb_u64_field(), 21),
+        motion in any::<bool>(),
+        fields in prop::collection::vec(arb_u64_field(), 26),
         floats in prop::collection::vec(
             prop_oneof![
                 3 => Just(None),
@@ -989,16 +1437,21 @@ proptest! {
             12,
         ),
     ) {
-        let mut bytes = fixture(if half { WeightType::F16 } else { WeightType::F32 }).to_bytes();
+        let weight_type = if half { WeightType::F16 } else { WeightType::F32 };
+        let mut bytes = match motion {
+            true => motion_fixture(weight_type),
+            false => fixture(weight_type),
+        }.to_bytes();
         let u32_fields = [
             OFF_VERSION, OFF_HEADER_SIZE, OFF_DTYPE, OFF_NUM_CLASSES, OFF_NUM_SINE_LAYERS,
             OFF_FLAGS, OFF_WIDTHS, OFF_WIDTHS + 4, OFF_WIDTHS + 8, OFF_WIDTHS + 28,
-            HEADER_SIZE + 4, HEADER_SIZE + CLASS_RECORD_SIZE + 4,
+            OFF_MOTION_SINE_LAYERS, OFF_MOTION_WIDTHS, OFF_MOTION_WIDTHS + 4,
+            OFF_MOTION_WIDTHS + 28, HEADER_SIZE + 4, HEADER_SIZE + CLASS_RECORD_SIZE + 4,
         ];
         let u64_fields = [
             OFF_FILE_SIZE, OFF_CLASSES_OFFSET, OFF_METADATA_OFFSET, OFF_METADATA_LEN,
-            OFF_WEIGHTS_OFFSET, OFF_WEIGHTS_COUNT, OFF_RESERVED, OFF_RESERVED + 96,
-            HEADER_SIZE,
+            OFF_WEIGHTS_OFFSET, OFF_WEIGHTS_COUNT, OFF_MOTION_WEIGHTS_COUNT, OFF_RESERVED,
+            OFF_RESERVED + 48, HEADER_SIZE,
         ];
         let (f32s, f64s) = fields.split_at(u32_fields.len());
         for (&at, v) in u32_fields.iter().zip(f32s) {
@@ -1011,7 +1464,7 @@ proptest! {
                 put_u64(&mut bytes, at, *v);
             }
         }
-        let float_fields = (0..12).map(|i| OFF_CENTER + 4 * i);
+        let float_fields = (0..11).map(|i| OFF_CENTER + 4 * i).chain([OFF_MOTION_OMEGA_T_MAX]);
         for (at, v) in float_fields.zip(&floats) {
             if let Some(v) = v {
                 put_f32(&mut bytes, at, *v);

@@ -1,7 +1,8 @@
-//! Eq. 11 labels: the argmin over (0, f¹, …, f^K), from every entry point.
+//! Eq. 11 labels: the argmin over (0, f¹, …, f^K), from every entry point, for models with and
+//! without motion.
 
 use dynaslice_core::{argmin_label, ModelBytes, Scratch};
-use dynaslice_tests::strategies::{model, to_world, unit_point};
+use dynaslice_tests::strategies::{any_model, to_world, unit_point};
 use proptest::prelude::*;
 
 proptest! {
@@ -9,7 +10,7 @@ proptest! {
 
     #[test]
     fn labels_are_the_argmin_with_background_zero(
-        mut w in model(),
+        mut w in any_model(),
         shift in -1.0f32..1.0,
         points in proptest::collection::vec(unit_point(), 1..40),
     ) {

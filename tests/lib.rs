@@ -5,7 +5,7 @@
 
 /// Proptest strategies shared by the tests.
 pub mod strategies {
-    use dynaslice_core::format::ModelWriter;
+    use dynaslice_core::format::{ModelWriter, WeightType};
     use dynaslice_core::Domain;
     use proptest::prelude::*;
 
@@ -31,6 +31,30 @@ pub mod strategies {
                 };
                 w
             })
+    }
+
+    /// A random motion model: a [`model`] with a SIREN-initialised motion network of 1–3 sine
+    /// layers of width 4–32 ([`ModelWriter::random_motion`]: its own ω_t^max, half its ω_t
+    /// clamped, displacements of a few tenths of the normalised cube), f32 or f16 weights.
+    pub fn motion_model() -> impl Strategy<Value = ModelWriter> {
+        (
+            model(),
+            proptest::collection::vec(4u32..32, 1..=3),
+            any::<u64>(),
+            any::<bool>(),
+        )
+            .prop_map(|(mut w, motion_widths, seed, half)| {
+                w.motion = ModelWriter::random_motion(&[4], 1, &motion_widths, seed).motion;
+                if half {
+                    w.weight_type = WeightType::F16;
+                }
+                w
+            })
+    }
+
+    /// A [`model`] or a [`motion_model`], even odds.
+    pub fn any_model() -> impl Strategy<Value = ModelWriter> {
+        prop_oneof![model(), motion_model()]
     }
 
     /// A point inside the model's world domain and time range, as fractions of it.

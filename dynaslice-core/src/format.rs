@@ -1,4 +1,4 @@
-//! The model file format, version 1 (byte by byte in `docs/model-format.md`).
+//! The model file format, versions 1 and 2 (byte by byte in `docs/model-format.md`).
 //!
 //! ```text
 //! offset              size          content
@@ -7,26 +7,34 @@
 //! 256 + 64·K          L             metadata, UTF-8 (L ≤ MAX_METADATA)
 //! align64(…)          0..63         zero padding
 //! weights_offset      4·N or 2·N    N weights, f32 or f16, layer by layer (see Layout)
+//!                     4·M or 2·M    version 2 only: the motion network's M weights, same type
 //! file_size − 4       4             CRC-32 of bytes [0, file_size − 4)
 //! ```
-//! The layout is canonical: every offset is implied by the dimensions, and readers reject a file
-//! whose offsets disagree. Weights start 64-byte aligned, so a model embedded with a 64-byte
-//! aligned `include_bytes!` is read in place.
+//! Version 1 holds one network (the shape network g); version 2 adds a motion network u
+//! ([`crate::Model::motion`]), described by header fields that version 1 keeps zero. A model
+//! without motion is always written as version 1. The layout is canonical: every offset is
+//! implied by the dimensions, and readers reject a file whose offsets disagree. Weights start
+//! 64-byte aligned, so a model embedded with a 64-byte aligned `include_bytes!` is read in place.
 
 pub use crate::class_record::{CLASS_RECORD_SIZE, MAX_NAME_LEN};
 pub use crate::layout::{MAX_CLASSES, MAX_SINE_LAYERS, MAX_WIDTH};
 
 use crate::class_record::ClassRecord;
 use crate::layout::Layout;
-use crate::model::{Model, Weights};
+use crate::model::{Model, Siren, Weights};
 use crate::{crc32, Domain, Error};
 use bytemuck::{Pod, Zeroable};
 use half::f16;
 
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"DYNSLICE";
-/// The format version this library reads and writes.
-pub const VERSION: u32 = 1;
+/// The newest format version this library reads and writes: 2, a model with a motion network.
+/// It reads version 1 too, and writes a model without motion as version 1 ([`VERSION_STATIC`]).
+pub const VERSION: u32 = 2;
+/// The version of a model without motion (one network), unchanged since the first release.
+pub const VERSION_STATIC: u32 = 1;
+/// Outputs of the motion network: the displacement's x, y, z in normalised coordinates.
+pub const MOTION_OUTPUTS: u32 = 3;
 /// Size of [`Header`] in bytes.
 pub const HEADER_SIZE: usize = 256;
 /// Longest metadata section, in bytes.
@@ -45,7 +53,7 @@ pub const DTYPE_F16: u32 = 1;
 pub struct Header {
     /// [`MAGIC`].
     pub magic: [u8; 8],
-    /// [`VERSION`].
+    /// [`VERSION_STATIC`] (1) without motion, [`VERSION`] (2) with a motion network.
     pub version: u32,
     /// [`HEADER_SIZE`].
     pub header_size: u32,
@@ -81,25 +89,65 @@ pub struct Header {
     pub metadata_len: u64,
     /// `align64(metadata_offset + metadata_len)`.
     pub weights_offset: u64,
-    /// Number of weights, [`Layout::param_count`].
+    /// Number of weights of the shape network, [`Layout::param_count`].
     pub weights_count: u64,
+    /// Version 2: the motion network's sine layer count (1 ..= [`MAX_SINE_LAYERS`]); version 1:
+    /// zero.
+    pub motion_sine_layers: u32,
+    /// Version 2: the motion network's sine layer widths; unused slots (and all in version 1)
+    /// zero.
+    pub motion_widths: [u32; MAX_SINE_LAYERS],
+    /// Version 2: the motion network's own ω_t^max (Eq. 4), in normalised time; version 1:
+    /// zero bits.
+    pub motion_omega_t_max: f32,
+    /// Version 2: the motion network's weight count, [`Layout::param_count`] of its layout
+    /// with 3 outputs; version 1: zero.
+    pub motion_weights_count: u64,
     /// Reserved, zero.
-    pub reserved: [u8; 104],
+    pub reserved: [u8; 56],
 }
 
 const _: () = assert!(core::mem::size_of::<Header>() == HEADER_SIZE);
 
-/// The largest file a valid model can be: every dimension at its limit (about 8.5 MB). Readers
-/// stop past it, so opening a huge file that is not a model fails fast instead of reading all of
-/// it.
+/// The largest file a valid model can be: every dimension at its limit, the motion network's
+/// too (about 15 MB). Readers stop past it, so opening a huge file that is not a model fails
+/// fast instead of reading all of it.
 pub fn max_file_size() -> u64 {
     let widths = [MAX_WIDTH as u32; MAX_SINE_LAYERS];
-    let params = Layout::new(&widths, MAX_CLASSES as u32)
-        .map(|l| l.param_count())
-        .unwrap_or(0) as u64;
+    let params = |outputs: u32| {
+        Layout::new(&widths, outputs)
+            .map(|l| l.param_count())
+            .unwrap_or(0) as u64
+    };
     let before_weights =
         (HEADER_SIZE + CLASS_RECORD_SIZE * MAX_CLASSES + MAX_METADATA + WEIGHT_ALIGN - 1) as u64; // at most WEIGHT_ALIGN - 1 bytes of padding before the weights
-    before_weights + 4 * params + 4
+    before_weights + 4 * (params(MAX_CLASSES as u32) + params(MOTION_OUTPUTS)) + 4
+}
+
+/// The motion network's layout from its header widths, with the errors of a motion field:
+/// `BadDimension` "motion sine layer count" (0, which version 2 does not allow, or above
+/// [`MAX_SINE_LAYERS`]) or "motion layer width".
+fn motion_layout(widths: &[u32]) -> Result<Layout, Error> {
+    if widths.is_empty() || widths.len() > MAX_SINE_LAYERS {
+        return Err(Error::BadDimension {
+            what: "motion sine layer count",
+            value: widths.len() as u64,
+            max: MAX_SINE_LAYERS as u64,
+        });
+    }
+    if let Some(&w) = widths.iter().find(|&&w| w == 0 || w as usize > MAX_WIDTH) {
+        return Err(Error::BadDimension {
+            what: "motion layer width",
+            value: w as u64,
+            max: MAX_WIDTH as u64,
+        });
+    }
+    Layout::new(widths, MOTION_OUTPUTS)
+}
+
+/// True for a valid ω_t^max: finite and ≥ 0 (−0 included).
+fn valid_omega(omega_t_max: f32) -> bool {
+    omega_t_max.is_finite() && omega_t_max >= 0.0
 }
 
 fn align_up(v: u64, a: u64) -> Option<u64> {
@@ -114,14 +162,23 @@ struct Sections {
     file_size: u64,
 }
 
-fn sections(layout: &Layout, metadata_len: u64, elem: u64) -> Option<Sections> {
+/// `motion`: the motion network's layout, whose weights follow the shape network's.
+fn sections(
+    layout: &Layout,
+    motion: Option<&Layout>,
+    metadata_len: u64,
+    elem: u64,
+) -> Option<Sections> {
     let metadata_offset =
         (HEADER_SIZE as u64).checked_add((layout.num_classes() as u64).checked_mul(64)?)?;
     let weights_offset = align_up(
         metadata_offset.checked_add(metadata_len)?,
         WEIGHT_ALIGN as u64,
     )?;
-    let weights_bytes = (layout.param_count() as u64).checked_mul(elem)?;
+    let motion_count = motion.map_or(0, |m| m.param_count()) as u64;
+    let weights_bytes = (layout.param_count() as u64)
+        .checked_add(motion_count)?
+        .checked_mul(elem)?;
     let file_size = weights_offset.checked_add(weights_bytes)?.checked_add(4)?;
     Some(Sections {
         metadata_offset,
@@ -158,9 +215,11 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Model<'_>, Error> {
     if h.magic != MAGIC {
         return Err(Error::BadMagic);
     }
-    if h.version != VERSION {
-        return Err(Error::UnsupportedVersion(h.version));
-    }
+    let with_motion = match h.version {
+        VERSION_STATIC => false,
+        VERSION => true,
+        v => return Err(Error::UnsupportedVersion(v)),
+    };
     if h.header_size as usize != HEADER_SIZE {
         return Err(Error::BadHeaderSize(h.header_size));
     }
@@ -177,13 +236,37 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Model<'_>, Error> {
             max: MAX_SINE_LAYERS as u64,
         });
     }
+    // Version 2: the motion network's layer count, as the shape network's above.
+    let motion_layers = h.motion_sine_layers as usize;
+    if with_motion && (motion_layers == 0 || motion_layers > MAX_SINE_LAYERS) {
+        return Err(Error::BadDimension {
+            what: "motion sine layer count",
+            value: motion_layers as u64,
+            max: MAX_SINE_LAYERS as u64,
+        });
+    }
+    // Version 1 keeps every motion field zero (they were reserved bytes).
+    let motion_fields_zero = h.motion_sine_layers == 0
+        && h.motion_widths.iter().all(|&w| w == 0)
+        && h.motion_omega_t_max.to_bits() == 0
+        && h.motion_weights_count == 0;
+    let unused_motion_widths = match with_motion {
+        true => &h.motion_widths[motion_layers..],
+        false => &[][..],
+    };
     if h.widths[n_layers..].iter().any(|&w| w != 0)
         || h.flags != 0
         || h.reserved.iter().any(|&b| b != 0)
+        || (!with_motion && !motion_fields_zero)
+        || unused_motion_widths.iter().any(|&w| w != 0)
     {
         return Err(Error::NonZeroPadding);
     }
     let layout = Layout::new(&h.widths[..n_layers], h.num_classes)?;
+    let motion_layout = match with_motion {
+        true => Some(motion_layout(&h.motion_widths[..motion_layers])?),
+        false => None,
+    };
     if h.metadata_len > MAX_METADATA as u64 {
         return Err(Error::BadDimension {
             what: "metadata length",
@@ -191,7 +274,8 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Model<'_>, Error> {
             max: MAX_METADATA as u64,
         });
     }
-    let s = sections(&layout, h.metadata_len, elem).ok_or(Error::BadLayout("size overflow"))?;
+    let s = sections(&layout, motion_layout.as_ref(), h.metadata_len, elem)
+        .ok_or(Error::BadLayout("size overflow"))?;
     if h.classes_offset != HEADER_SIZE as u64 {
         return Err(Error::BadLayout("class table offset"));
     }
@@ -205,6 +289,13 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Model<'_>, Error> {
         return Err(Error::BadLayout(
             "weight count does not match the layer widths",
         ));
+    }
+    if let Some(m) = &motion_layout {
+        if h.motion_weights_count != m.param_count() as u64 {
+            return Err(Error::BadLayout(
+                "motion weight count does not match the motion layer widths",
+            ));
+        }
     }
     if h.file_size != s.file_size {
         return Err(Error::BadLayout("file size does not match the dimensions"));
@@ -235,9 +326,14 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Model<'_>, Error> {
         output_scale: h.output_scale,
     };
     domain.validate()?;
-    if !(h.omega_t_max.is_finite() && h.omega_t_max >= 0.0) {
+    if !valid_omega(h.omega_t_max) {
         return Err(Error::BadHeaderValue(
             "omega_t_max is not a non-negative finite number",
+        ));
+    }
+    if with_motion && !valid_omega(h.motion_omega_t_max) {
+        return Err(Error::BadHeaderValue(
+            "motion omega_t_max is not a non-negative finite number",
         ));
     }
 
@@ -267,18 +363,26 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Model<'_>, Error> {
             index: index as u64,
         });
     }
+    // The shape network's N weights, then the motion network's (all N + M checked above).
+    let n = layout.param_count();
+    let motion = motion_layout.map(|m| Siren {
+        layout: m,
+        omega_t_max: h.motion_omega_t_max,
+        weights: weights.sub(n, m.param_count()),
+    });
     Ok(Model {
         layout,
         domain,
         omega_t_max: h.omega_t_max,
-        weights,
+        weights: weights.sub(0, n),
+        motion,
         classes,
         metadata,
     })
 }
 
 #[cfg(feature = "std")]
-pub use writer::{ModelWriter, WeightType};
+pub use writer::{ModelWriter, MotionWriter, WeightType};
 
 #[cfg(feature = "std")]
 mod writer {
@@ -293,6 +397,26 @@ mod writer {
         F32,
         /// 2 bytes per weight: half the size; see docs/model-format.md for the measured error.
         F16,
+    }
+
+    /// The motion network u of a [`ModelWriter`]: a SIREN with the shape network's conventions
+    /// (first layer rows ω_x, ω_y, ω_z, ω_t then φ; [`Layout`] order) and 3 outputs, the
+    /// displacement in normalised coordinates (y = x_n + u(x_n, t_n)).
+    #[derive(Debug, Clone, PartialEq)]
+    pub struct MotionWriter {
+        /// Widths of its sine layers (1 ..= [`MAX_SINE_LAYERS`] entries, each ≤ [`MAX_WIDTH`]).
+        pub widths: Vec<u32>,
+        /// Its own ω_t^max (Eq. 4) in normalised time, finite and ≥ 0.
+        pub omega_t_max: f32,
+        /// All its parameters in [`Layout`] order, for `Layout::new(&widths, 3)`.
+        pub params: Vec<f32>,
+    }
+
+    impl MotionWriter {
+        /// The validated layout of this motion network (3 outputs), with the reader's errors.
+        pub fn layout(&self) -> Result<Layout, Error> {
+            motion_layout(&self.widths)
+        }
     }
 
     /// An owned model to be written: the exact inverse of [`Model::from_bytes`].
@@ -310,8 +434,11 @@ mod writer {
         pub params: Vec<f32>,
         /// Free-form UTF-8 (the trainer records its options here).
         pub metadata: String,
-        /// Storage precision.
+        /// Storage precision (of both networks' weights).
         pub weight_type: WeightType,
+        /// The motion network of a motion model (written as version 2), or `None` (version 1,
+        /// the bytes every writer before motion models wrote).
+        pub motion: Option<MotionWriter>,
     }
 
     impl ModelWriter {
@@ -333,22 +460,37 @@ mod writer {
                 params: Vec::new(),
                 metadata: String::new(),
                 weight_type: WeightType::F32,
+                motion: None,
             };
-            let Ok(layout) = w.layout() else { return w };
-            for l in 0..layout.num_layers() {
-                let (fan_in, fan_out) = layout.layer_dims(l);
-                let bound = if l == 0 {
-                    30.0 / fan_in as f32
-                } else {
-                    (6.0 / fan_in as f32).sqrt()
-                };
-                for i in 0..fan_in {
-                    let b = if l == 0 && i == 3 { omega_t_max } else { bound };
-                    w.params.extend((0..fan_out).map(|_| rng.uniform(-b, b)));
-                }
-                let bb = 1.0 / (fan_in as f32).sqrt();
-                w.params.extend((0..fan_out).map(|_| rng.uniform(-bb, bb)));
+            if let Ok(layout) = w.layout() {
+                w.params = siren_params(&layout, omega_t_max, 1.0, &mut rng);
             }
+            w
+        }
+
+        /// A random motion model, a fixture like [`ModelWriter::random_siren`]: that shape
+        /// network (`widths`, K = `num_classes`, `seed`) and a SIREN-initialised motion network
+        /// of `motion_widths` whose ω_t^max is 2π·2, with first-layer ω_t drawn from twice that
+        /// range (so the clamp of Eq. 4 acts on about half of them) and its output layer scaled
+        /// by 0.1 (displacements of a few tenths of the normalised cube).
+        pub fn random_motion(
+            widths: &[u32],
+            num_classes: u32,
+            motion_widths: &[u32],
+            seed: u64,
+        ) -> ModelWriter {
+            let mut w = ModelWriter::random_siren(widths, num_classes, seed);
+            let mut rng = SplitMix64(seed ^ 0x6d6f_7469_6f6e); // "motion"
+            let omega_t_max = 4.0 * core::f32::consts::PI;
+            let mut motion = MotionWriter {
+                widths: motion_widths.to_vec(),
+                omega_t_max,
+                params: Vec::new(),
+            };
+            if let Ok(layout) = motion.layout() {
+                motion.params = siren_params(&layout, 2.0 * omega_t_max, 0.1, &mut rng);
+            }
+            w.motion = Some(motion);
             w
         }
 
@@ -357,7 +499,8 @@ mod writer {
             Layout::new(&self.widths, self.classes.len() as u32)
         }
 
-        /// Serialises the model, checking everything [`Model::from_bytes`] checks.
+        /// Serialises the model, checking everything [`Model::from_bytes`] checks: version 1
+        /// without motion, version 2 with it.
         pub fn try_to_bytes(&self) -> Result<Vec<u8>, Error> {
             let layout = self.layout()?;
             if self.params.len() != layout.param_count() {
@@ -365,18 +508,35 @@ mod writer {
                     "parameter count does not match the widths",
                 ));
             }
-            if let Some(i) = self.params.iter().position(|v| !v.is_finite()) {
+            let motion_layout = self.motion.as_ref().map(|m| m.layout()).transpose()?;
+            let motion_params = self.motion.as_ref().map_or(&[][..], |m| &m.params[..]);
+            if motion_params.len() != motion_layout.map_or(0, |m| m.param_count()) {
+                return Err(Error::InvalidModel(
+                    "motion parameter count does not match the motion widths",
+                ));
+            }
+            // Indices in the weight section: the shape network's, then the motion network's.
+            let all = || self.params.iter().chain(motion_params);
+            if let Some(i) = all().position(|v| !v.is_finite()) {
                 return Err(Error::NonFiniteWeight { index: i as u64 });
             }
-            if self.weight_type == WeightType::F16
-                && self.params.iter().any(|&v| !f16::from_f32(v).is_finite())
+            if self.weight_type == WeightType::F16 && all().any(|&v| !f16::from_f32(v).is_finite())
             {
                 return Err(Error::InvalidModel("a weight overflows f16"));
             }
             self.domain.validate()?;
-            if !(self.omega_t_max.is_finite() && self.omega_t_max >= 0.0) {
+            if !valid_omega(self.omega_t_max) {
                 return Err(Error::InvalidModel(
                     "omega_t_max must be finite and non-negative",
+                ));
+            }
+            if self
+                .motion
+                .as_ref()
+                .is_some_and(|m| !valid_omega(m.omega_t_max))
+            {
+                return Err(Error::InvalidModel(
+                    "motion omega_t_max must be finite and non-negative",
                 ));
             }
             if self.metadata.len() > MAX_METADATA {
@@ -393,13 +553,25 @@ mod writer {
                 WeightType::F32 => (4, DTYPE_F32),
                 WeightType::F16 => (2, DTYPE_F16),
             };
-            let s = sections(&layout, self.metadata.len() as u64, elem)
-                .ok_or(Error::InvalidModel("model too large"))?;
+            let s = sections(
+                &layout,
+                motion_layout.as_ref(),
+                self.metadata.len() as u64,
+                elem,
+            )
+            .ok_or(Error::InvalidModel("model too large"))?;
             let mut widths = [0u32; MAX_SINE_LAYERS];
             widths[..self.widths.len()].copy_from_slice(&self.widths);
+            let mut motion_widths = [0u32; MAX_SINE_LAYERS];
+            if let Some(m) = &self.motion {
+                motion_widths[..m.widths.len()].copy_from_slice(&m.widths);
+            }
             let header = Header {
                 magic: MAGIC,
-                version: VERSION,
+                version: match self.motion {
+                    Some(_) => VERSION,
+                    None => VERSION_STATIC,
+                },
                 header_size: HEADER_SIZE as u32,
                 file_size: s.file_size,
                 dtype,
@@ -418,7 +590,11 @@ mod writer {
                 metadata_len: self.metadata.len() as u64,
                 weights_offset: s.weights_offset,
                 weights_count: self.params.len() as u64,
-                reserved: [0; 104],
+                motion_sine_layers: self.motion.as_ref().map_or(0, |m| m.widths.len() as u32),
+                motion_widths,
+                motion_omega_t_max: self.motion.as_ref().map_or(0.0, |m| m.omega_t_max),
+                motion_weights_count: motion_params.len() as u64,
+                reserved: [0; 56],
             };
             let mut out = Vec::with_capacity(s.file_size as usize);
             out.extend_from_slice(bytemuck::bytes_of(&header));
@@ -432,14 +608,10 @@ mod writer {
             out.extend_from_slice(self.metadata.as_bytes());
             out.resize(s.weights_offset as usize, 0);
             match self.weight_type {
-                WeightType::F32 => self
-                    .params
-                    .iter()
-                    .for_each(|v| out.extend_from_slice(&v.to_le_bytes())),
-                WeightType::F16 => self
-                    .params
-                    .iter()
-                    .for_each(|&v| out.extend_from_slice(&f16::from_f32(v).to_le_bytes())),
+                WeightType::F32 => all().for_each(|v| out.extend_from_slice(&v.to_le_bytes())),
+                WeightType::F16 => {
+                    all().for_each(|&v| out.extend_from_slice(&f16::from_f32(v).to_le_bytes()))
+                }
             }
             let crc = crc32(&out);
             out.extend_from_slice(&crc.to_le_bytes());
@@ -456,22 +628,63 @@ mod writer {
             }
         }
 
-        /// Reads a model back into an owned writer (f16 weights widened to f32).
+        /// Reads a model back into an owned writer (f16 weights widened to f32), its motion
+        /// network included.
         pub fn from_model(model: &Model) -> ModelWriter {
             let weights = model.weights();
+            let params = |w: Weights| (0..w.len()).filter_map(|i| w.get(i)).collect();
+            let widths = |l: &Layout| l.widths().iter().map(|&w| w as u32).collect();
             ModelWriter {
-                widths: model.layout().widths().iter().map(|&w| w as u32).collect(),
+                widths: widths(model.layout()),
                 classes: model.classes().map(|c| (c.name.into(), c.label)).collect(),
                 domain: *model.domain(),
                 omega_t_max: model.omega_t_max(),
-                params: (0..weights.len()).filter_map(|i| weights.get(i)).collect(),
+                params: params(weights),
                 metadata: model.metadata().into(),
                 weight_type: match weights {
                     Weights::F32(_) => WeightType::F32,
                     Weights::F16(_) => WeightType::F16,
                 },
+                motion: model.motion().map(|m| MotionWriter {
+                    widths: widths(m.layout()),
+                    omega_t_max: m.omega_t_max(),
+                    params: params(m.weights()),
+                }),
             }
         }
+    }
+
+    /// SIREN initial parameters for `layout` (Sitzmann et al. 2020, ω₀ = 30 folded in): first
+    /// layer ω_x ~ U(−ω₀/4, ω₀/4), ω_t ~ U(−`omega_t`, `omega_t`), hidden layers
+    /// U(−√(6/fan_in), √(6/fan_in)), biases U(−1/√fan_in, 1/√fan_in); the output layer's
+    /// weights and bias times `output_gain`.
+    fn siren_params(
+        layout: &Layout,
+        omega_t: f32,
+        output_gain: f32,
+        rng: &mut SplitMix64,
+    ) -> Vec<f32> {
+        let mut params = Vec::with_capacity(layout.param_count());
+        for l in 0..layout.num_layers() {
+            let (fan_in, fan_out) = layout.layer_dims(l);
+            let gain = if l + 1 == layout.num_layers() {
+                output_gain
+            } else {
+                1.0
+            };
+            let bound = if l == 0 {
+                30.0 / fan_in as f32
+            } else {
+                (6.0 / fan_in as f32).sqrt()
+            };
+            for i in 0..fan_in {
+                let b = if l == 0 && i == 3 { omega_t } else { bound };
+                params.extend((0..fan_out).map(|_| gain * rng.uniform(-b, b)));
+            }
+            let bb = 1.0 / (fan_in as f32).sqrt();
+            params.extend((0..fan_out).map(|_| gain * rng.uniform(-bb, bb)));
+        }
+        params
     }
 
     /// SplitMix64 (Steele et al. 2014): tiny, seedable, good enough for initial weights.

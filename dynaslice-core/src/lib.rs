@@ -57,7 +57,7 @@ pub use error::Error;
 pub use eval::Scratch;
 pub use label::{argmin_label, UNDEFINED_LABEL};
 pub use layout::Layout;
-pub use model::{Model, Weights};
+pub use model::{Model, Siren, Weights};
 #[cfg(feature = "std")]
 pub use model_bytes::{ModelBytes, OwnedModel};
 

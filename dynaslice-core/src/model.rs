@@ -49,7 +49,40 @@ impl<'a> Weights<'a> {
     }
 }
 
+/// One SIREN of a model (Eq. 1, 2, 4): its validated layout, the bound ω_t^max its first
+/// layer's ω_t row is clamped to, and its weights in [`Layout`] order. A model's shape network
+/// g is one; a motion model's motion network u ([`Model::motion`]) is another, with 3 outputs.
+#[derive(Debug, Clone, Copy)]
+pub struct Siren<'a> {
+    pub(crate) layout: Layout,
+    pub(crate) omega_t_max: f32,
+    pub(crate) weights: Weights<'a>,
+}
+
+impl<'a> Siren<'a> {
+    /// The network's dimensions (for the motion network, `num_classes()` is 3: the
+    /// displacement's x, y, z in normalised coordinates).
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// Its own ω_t^max (Eq. 4), in normalised time.
+    pub fn omega_t_max(&self) -> f32 {
+        self.omega_t_max
+    }
+
+    /// Its weights, borrowed from the model bytes.
+    pub fn weights(&self) -> Weights<'a> {
+        self.weights
+    }
+}
+
 /// A validated DynaSlice model borrowing its bytes (see [`Model::from_bytes`]).
+///
+/// Either f(x, t) = g(x_n, t_n), one SIREN g (the shape network, a version-1 file), or a
+/// motion model f(x, t) = g(x_n + u(x_n, t_n), t_n) with a second SIREN u, the motion network
+/// (a version-2 file; [`Model::motion`]). x_n, t_n are the normalised point and time
+/// ([`Domain::normalise`]).
 ///
 /// Immutable and `Sync`: any number of threads may query one model at once.
 #[derive(Debug, Clone, Copy)]
@@ -58,6 +91,8 @@ pub struct Model<'a> {
     pub(crate) domain: Domain,
     pub(crate) omega_t_max: f32,
     pub(crate) weights: Weights<'a>,
+    /// The motion network u, for a motion model.
+    pub(crate) motion: Option<Siren<'a>>,
     /// K validated records of [`CLASS_RECORD_SIZE`] bytes.
     pub(crate) classes: &'a [u8],
     pub(crate) metadata: &'a str,
@@ -84,9 +119,32 @@ impl<'a> Model<'a> {
         self.omega_t_max
     }
 
-    /// The weight section.
+    /// The shape network's weights (the whole weight section of a model without motion; the
+    /// motion network's follow them, [`Model::motion`]).
     pub fn weights(&self) -> Weights<'a> {
         self.weights
+    }
+
+    /// The shape network g: [`Model::layout`], [`Model::omega_t_max`], [`Model::weights`].
+    pub fn shape(&self) -> Siren<'a> {
+        Siren {
+            layout: self.layout,
+            omega_t_max: self.omega_t_max,
+            weights: self.weights,
+        }
+    }
+
+    /// The motion network u of a motion model (its layout with 3 outputs, its own ω_t^max and
+    /// its weights), or `None` for a model without motion.
+    pub fn motion(&self) -> Option<Siren<'a>> {
+        self.motion
+    }
+
+    /// True when f does not depend on t: ω_t^max is 0 for the shape network and, in a motion
+    /// model, for the motion network too (every ω_t is then clamped to 0). Such a model was
+    /// trained on one timestep.
+    pub fn is_static(&self) -> bool {
+        self.omega_t_max == 0.0 && self.motion.is_none_or(|m| m.omega_t_max == 0.0)
     }
 
     /// Free-form UTF-8 metadata (the trainer records its options here).

@@ -192,6 +192,7 @@ impl Network {
             params: self.params.clone(),
             metadata,
             weight_type: WeightType::F32,
+            motion: None,
         }
     }
 }

@@ -10,6 +10,10 @@ use dynaslice_core::{Domain, Layout};
 /// A network in f64, straight from Eq. 1, 2, 4, 9:
 /// h⁰ = sin(ω_x x_n + clamp(ω_t, ±ω_t^max) t_n + φ), hⁱ = sin(Wⁱ hⁱ⁻¹ + bⁱ), f = σ(W h + b),
 /// with ∇ₓf carried alongside by forward-mode tangents.
+///
+/// A motion model is the composite f(x, t) = σ g(y, t_n) with y = x_n + u(x_n, t_n) (clamped
+/// to ±2²⁰ like x_n) and u a second network of the same form with 3 outputs and its own ω_t^max;
+/// its ∇ₓf by the chain rule through y: ∇_{x_n} f = (I + J_u)ᵀ ∇_y g.
 #[derive(Debug, Clone)]
 pub struct Reference {
     layout: Layout,
@@ -18,16 +22,32 @@ pub struct Reference {
     domain: Domain,
     /// ω_t^max of Eq. 4; infinite for no clamp.
     omega_t_max: f64,
+    /// The motion network u of a motion model (in normalised units, the identity domain).
+    motion: Option<Box<Reference>>,
 }
 
+/// Largest normalised coordinate, as `dynaslice_core::domain::NORMALISED_LIMIT` (2²⁰).
+const LIMIT: f64 = 1_048_576.0;
+
 impl Reference {
-    /// The model a [`ModelWriter`] describes, its parameters widened to f64.
+    /// The model a [`ModelWriter`] describes, its parameters widened to f64, its motion
+    /// network included.
     pub fn new(writer: &ModelWriter) -> Reference {
+        let widen = |p: &[f32]| p.iter().map(|&v| f64::from(v)).collect();
         Reference {
             layout: writer.layout().expect("valid layout"),
-            params: writer.params.iter().map(|&v| f64::from(v)).collect(),
+            params: widen(&writer.params),
             domain: writer.domain,
             omega_t_max: f64::from(writer.omega_t_max),
+            motion: writer.motion.as_ref().map(|m| {
+                Box::new(Reference {
+                    layout: m.layout().expect("valid motion layout"),
+                    params: widen(&m.params),
+                    domain: Domain::IDENTITY,
+                    omega_t_max: f64::from(m.omega_t_max),
+                    motion: None,
+                })
+            }),
         }
     }
 
@@ -40,11 +60,60 @@ impl Reference {
             params: params.iter().map(|&v| f64::from(v)).collect(),
             domain: Domain::IDENTITY,
             omega_t_max: f64::INFINITY,
+            motion: None,
         }
     }
 
-    /// f and ∇ₓf of every channel at the normalised input (x, y, z, t), in normalised units.
+    /// f and ∇ₓf of every channel at the normalised input (x, y, z, t), in normalised units;
+    /// for a motion model, through the warp y = x_n + u(x_n, t_n).
     pub fn normalised(&self, input: [f64; 4]) -> (Vec<f64>, Vec<[f64; 3]>) {
+        let Some(motion) = &self.motion else {
+            return self.network(input);
+        };
+        // u and J_u[e][d] = ∂u_e/∂x_d.
+        let (u, ju) = motion.network(input);
+        let y = std::array::from_fn(|d| {
+            if d < 3 {
+                (input[d] + u[d]).clamp(-LIMIT, LIMIT)
+            } else {
+                input[3]
+            }
+        });
+        let (g, grad_g) = self.network(y);
+        // ∂f/∂x_d = Σ_e ∂g/∂y_e (δ_ed + ∂u_e/∂x_d).
+        let grad = grad_g
+            .iter()
+            .map(|gy| {
+                std::array::from_fn(|d| {
+                    (0..3)
+                        .map(|e| gy[e] * (f64::from(u8::from(e == d)) + ju[e][d]))
+                        .sum()
+                })
+            })
+            .collect();
+        (g, grad)
+    }
+
+    /// The displacement u of a motion model at world (x, t), in world units (u_n times the
+    /// domain's scale per axis); zero without motion.
+    pub fn displacement(&self, x: [f64; 3], t: f64) -> [f64; 3] {
+        let Some(motion) = &self.motion else {
+            return [0.0; 3];
+        };
+        let (u, _) = motion.network(self.normalise(x, t));
+        std::array::from_fn(|d| u[d] * f64::from(self.domain.scale[d]))
+    }
+
+    /// World (x, t) to the normalised input (x_n, t_n).
+    fn normalise(&self, x: [f64; 3], t: f64) -> [f64; 4] {
+        let d = &self.domain;
+        let space = |i: usize| (x[i] - f64::from(d.center[i])) / f64::from(d.scale[i]);
+        let time = (t - f64::from(d.time_origin)) / f64::from(d.time_span);
+        [space(0), space(1), space(2), time]
+    }
+
+    /// One network's outputs and their ∇ₓ at the normalised input.
+    fn network(&self, input: [f64; 4]) -> (Vec<f64>, Vec<[f64; 3]>) {
         let mut h = input.to_vec();
         // ∂h/∂x_d, seeded with the unit vectors of the three spatial inputs (t has none).
         let mut hd: Vec<[f64; 3]> = (0..4)
@@ -93,11 +162,9 @@ impl Reference {
 
     /// The K world-unit signed distances at world (x, t).
     pub fn eval(&self, x: [f64; 3], t: f64) -> Vec<f64> {
-        let d = &self.domain;
-        let space = |i: usize| (x[i] - f64::from(d.center[i])) / f64::from(d.scale[i]);
-        let time = (t - f64::from(d.time_origin)) / f64::from(d.time_span);
-        let (f, _) = self.normalised([space(0), space(1), space(2), time]);
-        f.iter().map(|v| v * f64::from(d.output_scale)).collect()
+        let (f, _) = self.normalised(self.normalise(x, t));
+        let sigma = f64::from(self.domain.output_scale);
+        f.iter().map(|v| v * sigma).collect()
     }
 
     /// Central differences in f64 of every channel along world input `axis` (0..3 space,

@@ -139,6 +139,7 @@ pub fn writer_in(domain: Domain, spheres: &[Sphere], classes: &[(&str, i32)]) ->
         params: params.into_iter().map(|v| v as f32).collect(),
         metadata: String::new(),
         weight_type: WeightType::F32,
+        motion: None,
     }
 }
 
