@@ -96,5 +96,25 @@ pub fn run(a: Args) -> Result<()> {
             ratio
         )?;
     }
+    outln!(
+        "a moving input's motion model (f = g(x + u(x, t), t), u {:?}), the trainer's scheme:",
+        dynaslice_train::warp::MOTION_WIDTHS
+    )?;
+    outln!(
+        "{:>3} {:>16} {:>16} {:>9}",
+        "K",
+        "s/step (shape)",
+        "s/step (motion)",
+        "× shape"
+    )?;
+    for row in bench::motion_table(&a.widths, &a.classes, &counts, a.threads, a.repeats) {
+        outln!(
+            "{:>3} {:>16.4} {:>16.4} {:>9.2}",
+            row.shape.num_classes,
+            row.shape.seconds,
+            row.motion.seconds,
+            row.motion.seconds / row.shape.seconds
+        )?;
+    }
     Ok(())
 }

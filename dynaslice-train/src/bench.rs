@@ -14,6 +14,7 @@ use super::matmul::{matmul, Mat, Op};
 use super::network::{Network, OMEGA_0};
 use super::objective::{Batch, Objective, SpaceTimeScheme};
 use super::trainer::TrainOptions;
+use super::warp;
 use dynaslice_core::Layout;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -168,7 +169,7 @@ pub fn step_table(
             SpaceTimeScheme::ReverseOverReverse,
             SpaceTimeScheme::ForwardTangents,
         ] {
-            let report = step(widths, k, scheme, counts, threads, repeats);
+            let report = step(widths, k, scheme, counts, threads, repeats, false);
             let chosen = scheme == SpaceTimeScheme::cheapest(k);
             if chosen && k == base_k {
                 base = Some(report.seconds);
@@ -187,8 +188,39 @@ pub fn step_table(
         .collect()
 }
 
+/// A motion model's training step against the same shape network's without motion, measured
+/// in the same run with the trainer's scheme for K.
+#[derive(Clone, Debug)]
+pub struct MotionRow {
+    /// The step without motion.
+    pub shape: StepReport,
+    /// The step with the default motion network ([`crate::warp::MOTION_WIDTHS`]).
+    pub motion: StepReport,
+}
+
+/// [`MotionRow`] for each class count of `classes`.
+pub fn motion_table(
+    widths: &[u32],
+    classes: &[usize],
+    counts: &SampleCounts,
+    threads: usize,
+    repeats: usize,
+) -> Vec<MotionRow> {
+    classes
+        .iter()
+        .map(|&k| {
+            let scheme = SpaceTimeScheme::cheapest(k);
+            MotionRow {
+                shape: step(widths, k, scheme, counts, threads, repeats, false),
+                motion: step(widths, k, scheme, counts, threads, repeats, true),
+            }
+        })
+        .collect()
+}
+
 /// Median time of a training step (loss, gradient; no sampling) at `widths` with K classes,
-/// space-time gradients by `scheme`, samples drawn by `counts`.
+/// space-time gradients by `scheme`, samples drawn by `counts`, with the default motion network
+/// where `motion` (the FLOP count is the shape network's either way).
 pub fn step(
     widths: &[u32],
     k: usize,
@@ -196,9 +228,12 @@ pub fn step(
     counts: &SampleCounts,
     threads: usize,
     repeats: usize,
+    motion: bool,
 ) -> StepReport {
     let layout = Layout::new(widths, k as u32).expect("valid benchmark layout");
-    let net = Network::siren(layout, OMEGA_0, 0.0, 10.0, 1);
+    let motion =
+        motion.then(|| Network::motion_siren(&warp::MOTION_WIDTHS, warp::MOTION_OMEGA_0, 10.0, 3));
+    let net = Network::siren(layout, OMEGA_0, 0.0, 10.0, 1).with_motion(motion);
     let batch = random_batch(k, counts, 2);
     let max_set = batch
         .contour_x
@@ -207,7 +242,7 @@ pub fn step(
         .max(batch.space_x.len());
     let mut objective = Objective::with_scheme(&net, threads, max_set, scheme);
     let weights = TrainOptions::default().loss;
-    let mut grad = vec![0.0; net.params.len()];
+    let mut grad = vec![0.0; net.all_params_len()];
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

@@ -8,7 +8,7 @@ use super::network::Network;
 use super::objective::{Batch, Objective, SpaceTimeScheme};
 use super::passes::{Tangents, Workspace};
 use super::reverse_over_reverse::ReverseWorkspace;
-use super::warp;
+use super::warp::{self, WarpWorkspace};
 use dynaslice_core::{Domain, Layout, ModelBytes};
 use dynaslice_test_support::reference::Reference;
 use proptest::prelude::*;
@@ -104,6 +104,18 @@ fn reference_loss(
             let strain: f64 = j.iter().flatten().map(|v| v * v).sum();
             let margin = f64::from(warp::FOLD_MARGIN);
             loss += (f64::from(warp::STRAIN_WEIGHT) * strain + (margin - det).max(0.0)) / n;
+            // ∂u/∂t by a central difference (step 1e-4 in f64: O(1e-8) truncation).
+            let h = 1e-4;
+            let at = |dt: f64| {
+                motion
+                    .normalised([x[0] as f64, x[1] as f64, x[2] as f64, x[3] as f64 + dt])
+                    .0
+            };
+            let (ahead, behind) = (at(h), at(-h));
+            let speed: f64 = (0..3)
+                .map(|a| ((ahead[a] - behind[a]) / (2.0 * h)).powi(2))
+                .sum();
+            loss += f64::from(warp::velocity_weight()) * speed / n;
             kinks.push(det - margin);
         }
     }
@@ -356,6 +368,38 @@ proptest! {
                         prop_assert!((mine - g[c][d]).abs() <= 1e-4 * (1.0 + g[c][d].abs()), "∇f {mine} vs {}", g[c][d]);
                     }
                 }
+            }
+        }
+    }
+}
+
+proptest! {
+    /// A motion model's f and ⟨∇ₓf, n⟩ as the trainer computes them (u's pass along n, then g's
+    /// at y = x + u along m = n + J_u n: `warp`) equal the core's evaluation of the exported
+    /// model, version 2 of the file: trainer and core agree on what the model is.
+    #[test]
+    fn motion_outputs_match_the_core((net, batch) in motion_strategy()) {
+        let k = net.layout.num_classes();
+        let classes = (0..k).map(|c| (format!("c{c}"), c as i32 + 1)).collect();
+        let bytes = ModelBytes::copy_from(&net.to_writer(Domain::IDENTITY, classes, String::new()).to_bytes());
+        let model = bytes.model().unwrap();
+        prop_assert!(model.motion().is_some());
+        let (x, normals) = (&batch.contour_x, &batch.contour_normal);
+        let n = x.len();
+        let motion = net.motion.as_deref().unwrap();
+        let mut warp = WarpWorkspace::new(motion, n, true);
+        let (y, m) = warp.forward(motion, x, Some(normals));
+        let mut shape = Workspace::new(&net, n, 1);
+        shape.forward(&net, y, Tangents::Along(m));
+        let out = shape.outputs(n);
+        for (i, p) in x.iter().enumerate() {
+            let (mut f, mut g) = (vec![0.0; k], vec![[0.0; 3]; k]);
+            model.eval_grad([p[0], p[1], p[2]], p[3], &mut f, &mut g).unwrap();
+            for c in 0..k {
+                prop_assert!((out[i * k + c] - f[c]).abs() <= 1e-3 * (1.0 + f[c].abs()), "f {} vs {}", out[i * k + c], f[c]);
+                let dot: f32 = (0..3).map(|d| g[c][d] * normals[i][d]).sum();
+                let mine = out[(n + i) * k + c];
+                prop_assert!((mine - dot).abs() <= 1e-3 * (1.0 + dot.abs()), "⟨∇f, n⟩ {mine} vs {dot}");
             }
         }
     }

@@ -115,6 +115,8 @@ struct MotionWorkspaces {
     plane: WarpWorkspace,
     strain: Workspace,
     g_strain: Vec<f32>,
+    velocity: Workspace,
+    g_velocity: Vec<f32>,
 }
 
 /// Per-thread buffers for evaluating the loss; allocated once for the largest batch.
@@ -161,6 +163,8 @@ impl Objective {
                     plane: WarpWorkspace::new(m, cap, false),
                     strain: Workspace::new(m, cap, 3),
                     g_strain: vec![0.0; 12 * cap],
+                    velocity: Workspace::new(m, cap, 1),
+                    g_velocity: vec![0.0; 6 * cap],
                 }),
                 g_out: vec![0.0; 4 * cap * k],
                 grad: vec![0.0; net.all_params_len()],
@@ -254,6 +258,12 @@ impl Objective {
                     w.terms.add(&t);
                     ws.strain
                         .backward(motion, x, Tangents::Axes, &ws.g_strain, motion_grad);
+                    ws.velocity.forward(motion, x, Tangents::Time);
+                    let out = ws.velocity.outputs(x.len());
+                    let t = warp::velocity(out, space_weight, &mut ws.g_velocity);
+                    w.terms.add(&t);
+                    ws.velocity
+                        .backward(motion, x, Tangents::Time, &ws.g_velocity, motion_grad);
                 }
             }
         });

@@ -24,8 +24,8 @@
 //!   docs/performance.md).
 //!
 //! The first layer's input tangent for direction u is Σ_d u_d e_d, so Ż₀ = Σ_d u_d·(row d of W₀ᵀ)
-//! (for the axes, row d of W₀ᵀ itself, i.e. ω_x), and its weight gradient gets Σ_rows u_d Ḡ_Ż₀
-//! added to row d.
+//! (for the axes, row d of W₀ᵀ itself, i.e. ω_x; for time, the ω_t row), and its weight gradient
+//! gets Σ_rows u_d Ḡ_Ż₀ added to row d.
 
 use super::matmul::{matmul, Mat, Op};
 use super::network::Network;
@@ -44,6 +44,8 @@ pub enum Tangents<'a> {
     Axes,
     /// One directional derivative per point, along the given vector (one tangent group).
     Along(&'a [[f32; 3]]),
+    /// ∂/∂t (one tangent group): a motion's velocity (`crate::warp`).
+    Time,
 }
 
 impl Tangents<'_> {
@@ -52,16 +54,17 @@ impl Tangents<'_> {
         match self {
             Tangents::None => 0,
             Tangents::Axes => 3,
-            Tangents::Along(_) => 1,
+            Tangents::Along(_) | Tangents::Time => 1,
         }
     }
 
-    /// Component `d` of tangent group `group`'s input direction at point `i`.
+    /// Component `d` (x, y, z, t) of tangent group `group`'s input direction at point `i`.
     fn component(&self, group: usize, i: usize, d: usize) -> f32 {
         match self {
             Tangents::None => 0.0,
             Tangents::Axes => (group == d) as u8 as f32,
-            Tangents::Along(u) => u[i][d],
+            Tangents::Along(u) => u[i].get(d).copied().unwrap_or(0.0),
+            Tangents::Time => (d == 3) as u8 as f32,
         }
     }
 }
@@ -136,7 +139,7 @@ impl Workspace {
             let group = &mut z0[(1 + g) * n * w0..(2 + g) * n * w0];
             for (i, row) in group.chunks_exact_mut(w0).enumerate() {
                 row.fill(0.0);
-                for d in 0..3 {
+                for d in 0..INPUT_DIM {
                     let u = tangents.component(g, i, d);
                     if u != 0.0 {
                         let w = &wt0[d * w0..(d + 1) * w0];
@@ -244,7 +247,7 @@ impl Workspace {
                 for g in 0..t {
                     let group = &g_cur[(n + g * m) * fan_out..(n + (g + 1) * m) * fan_out];
                     for (&i, grow) in self.kept.iter().zip(group.chunks_exact(fan_out)) {
-                        for d in 0..3 {
+                        for d in 0..INPUT_DIM {
                             let u = tangents.component(g, i, d);
                             if u != 0.0 {
                                 let row = &mut gw[d * fan_out..(d + 1) * fan_out];

@@ -90,7 +90,7 @@ pub struct Progress {
 impl Progress {
     /// The step's figures by name (besides `step` and `steps`): what Python's progress callback
     /// gets.
-    pub fn figures(&self) -> [(&'static str, f64); 9] {
+    pub fn figures(&self) -> [(&'static str, f64); 10] {
         let t = &self.terms;
         [
             ("loss", self.loss),
@@ -102,6 +102,7 @@ impl Progress {
             ("eikonal", t.eikonal),
             ("spurious", t.spurious),
             ("outside", t.outside),
+            ("motion", t.motion),
         ]
     }
 }
@@ -113,8 +114,16 @@ impl std::fmt::Display for Progress {
         write!(
             f,
             "loss {:.4e} (surface {:.3e}, orientation {:.3e}, plane {:.3e}, eikonal {:.3e}, \
-             spurious {:.3e}, outside {:.3e}) lr {:.2e}",
-            self.loss, t.surface, t.orientation, t.plane, t.eikonal, t.spurious, t.outside, self.lr
+             spurious {:.3e}, outside {:.3e}, motion {:.3e}) lr {:.2e}",
+            self.loss,
+            t.surface,
+            t.orientation,
+            t.plane,
+            t.eikonal,
+            t.spurious,
+            t.outside,
+            t.motion,
+            self.lr
         )
     }
 }

@@ -57,10 +57,18 @@ pub fn motion_options(
     off: bool,
     control: bool,
 ) -> Option<MotionOptions> {
+    let env = |k: &str, d: f32| {
+        std::env::var(k)
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(d)
+    };
+    let w = env("XM_W", MOTION_WIDTHS[0] as f32) as u32;
+    let depth = env("XM_D", 2.0) as usize;
     (!off && seq.frames().len() > 1).then(|| MotionOptions {
-        widths: MOTION_WIDTHS.to_vec(),
-        omega_0: MOTION_OMEGA_0,
-        omega_t_max: temporal_bound(seq, domain, MOTION_TEMPORAL_FACTOR, control),
+        widths: vec![w; depth],
+        omega_0: env("XM_OMEGA", MOTION_OMEGA_0),
+        omega_t_max: temporal_bound(seq, domain, env("XM_C", MOTION_TEMPORAL_FACTOR), control),
     })
 }
 
@@ -68,6 +76,18 @@ pub fn motion_options(
 /// ω₀ and band (a strain penalty also resists the true bending of a swaying structure), and
 /// never the size of u itself (a penalty on |u| biases the motion's amplitude low).
 pub const STRAIN_WEIGHT: f32 = 0.01;
+
+/// λ_v of the motion's velocity term λ_v ‖∂u/∂t‖²: between annotated times the data leave the
+/// motion free, and the least-velocity path between two positions is the straight one at even
+/// speed, so this term interpolates the motion as a linear interpolation of positions would,
+/// where a per-point field would blend the shapes instead. Small against the data terms, which
+/// pin the positions at the annotated times.
+pub fn velocity_weight() -> f32 {
+    std::env::var("XM_V")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1e-3)
+}
 
 /// δ of the fold hinge ReLU(δ − det(I + J_u)): the warp x ↦ x + u(x, t) keeps a positive
 /// Jacobian determinant with a margin wherever it is sampled, so it does not fold.
@@ -192,6 +212,21 @@ pub fn regulariser(out: &[f32], weight: f32, g: &mut [f32]) -> LossTerms {
             }
         }
         terms.motion += (weight * value) as f64;
+    }
+    terms
+}
+
+/// The motion's velocity term on `n` points of u's stacked [U; ∂U/∂t] (`out`, each n × 3), each
+/// point weighing `weight`: λ_v ‖∂u/∂t‖² ([`velocity_weight`]). Writes its gradient to `g` in
+/// the same layout (zero on U).
+pub fn velocity(out: &[f32], weight: f32, g: &mut [f32]) -> LossTerms {
+    let n = out.len() / 6;
+    let lambda = velocity_weight();
+    g[..3 * n].fill(0.0);
+    let mut terms = LossTerms::default();
+    for (gv, v) in g[3 * n..6 * n].iter_mut().zip(&out[3 * n..6 * n]) {
+        terms.motion += (weight * lambda * v * v) as f64;
+        *gv = weight * lambda * 2.0 * v;
     }
     terms
 }

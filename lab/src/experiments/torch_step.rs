@@ -92,6 +92,7 @@ fn our_step(a: &Args, k: usize) -> StepReport {
         &a.samples.counts(),
         a.threads,
         a.repeats,
+        false,
     )
 }
 
