@@ -11,6 +11,7 @@ use super::input::InputArgs;
 use super::options::flag_args;
 use super::progress::{Progress as Bar, QUIET};
 use anyhow::{bail, Result};
+use dynaslice_figures::plot::loss_curve;
 use dynaslice_train::fit::Observer;
 use dynaslice_train::flags::FLAGS;
 use dynaslice_train::job::{self, Finished, Job, Words};
@@ -70,7 +71,7 @@ fn resume_command() -> String {
 pub fn run(a: Args) -> Result<()> {
     let spec = a.options.apply(TrainSpec::default());
     let input = a.input.spec();
-    let job = Job::new(&input, &spec, &a.output, Words::COMMAND_LINE);
+    let job = Job::new(&input, &spec, &a.output, Words::COMMAND_LINE, loss_curve);
     // SIGINT, SIGTERM and SIGHUP end the run at once until its first step (nothing to save),
     // then stop it after a step, with a checkpoint (`Console::training`).
     let before = super::signals::before_training();

@@ -9,6 +9,7 @@ use crate::model::PyModel;
 use crate::progress::Watch;
 use crate::DynasliceError;
 use dynaslice_data::input_spec::InputSpec;
+use dynaslice_figures::plot::loss_curve;
 use dynaslice_train::job::{self, Job, SetError, Words};
 use dynaslice_train::{spec::SpecError, spec::TrainSpec};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyTypeError, PyValueError};
@@ -62,7 +63,7 @@ pub fn train(
             )),
         })?;
     }
-    let job = Job::new(&input, &spec, &output, Words::PYTHON);
+    let job = Job::new(&input, &spec, &output, Words::PYTHON, loss_curve);
     let mut watch = Watch::new(progress);
     let finished = py
         .detach(|| job::run(&job, &mut watch))

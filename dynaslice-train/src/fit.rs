@@ -28,9 +28,9 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// The files of one training run, all beside the model: `MODEL.loss.csv` (one row per step),
-/// `MODEL.loss.png` (the curve, written by the front end), and while the run goes the
-/// checkpoint `MODEL.ckpt` and its loss rows `MODEL.ckpt.loss.csv`, which a finished run
-/// removes.
+/// `MODEL.loss.png` (the curve, drawn by the front end's [`crate::job::DrawCurve`]), and while
+/// the run goes the checkpoint `MODEL.ckpt` and its loss rows `MODEL.ckpt.loss.csv`, which a
+/// finished run removes.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RunFiles {
     /// The model file.
@@ -180,7 +180,8 @@ pub struct Trained {
 
 impl Trained {
     /// Writes the model and its loss log (each atomically) and, the run being finished,
-    /// removes its checkpoint and journal. The loss curve (`files.png`) is the front end's.
+    /// removes its checkpoint and journal. The loss curve (`files.png`) is drawn by the front
+    /// end's function ([`crate::job::DrawCurve`]).
     pub fn write(&self, files: &RunFiles) -> Result<()> {
         if self.stopped {
             bail!(

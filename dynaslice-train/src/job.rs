@@ -9,13 +9,16 @@
 //! ([`crate::fit`]); validates the model once, writes it with its loss log and curve; and checks
 //! each class's extent against its contours ([`extent::check_model`]), telling the observer of
 //! what the data does not support.
+//!
+//! The curve is drawn by the front end's [`DrawCurve`] (both pass
+//! `dynaslice_figures::plot::loss_curve`), called here while the outputs are claimed, so the
+//! trainer carries no plotting code and the files are the same from every front end.
 
 use crate::fit::{fit_checked, InputRecord, Observer, RunFiles, Trained};
 use crate::journal::TERM_NAMES;
 use crate::spec::TrainSpec;
 use anyhow::{anyhow, Result};
 use dynaslice_data::input_spec::InputSpec;
-use dynaslice_figures::plot::loss_curve;
 use dynaslice_metrics::extent::{self, Warning};
 use dynaslice_model::ModelFile;
 use dynaslice_output::{Kind, Plan};
@@ -81,6 +84,11 @@ impl Words {
     };
 }
 
+/// What draws a run's loss curve: writes the PNG `path` (atomically) of the `rows`, each a step
+/// and its values in the order of the term `names`, one line per term against the step. The
+/// front ends pass `dynaslice_figures::plot::loss_curve`.
+pub type DrawCurve = fn(path: &Path, names: &[&str], rows: &[(u64, &[f64])]) -> Result<()>;
+
 /// A training job: what to read, how to train, where to write.
 #[derive(Clone, Debug)]
 pub struct Job<'a> {
@@ -92,17 +100,26 @@ pub struct Job<'a> {
     pub output: &'a Path,
     /// The front end's words for its options.
     pub words: Words,
+    /// What draws the loss curve ([`RunFiles::png`]).
+    pub curve: DrawCurve,
 }
 
 impl<'a> Job<'a> {
-    /// The job of training on `input` as `spec` says, writing `output`, in the messages the
-    /// `words` of the front end.
-    pub fn new(input: &'a InputSpec, spec: &'a TrainSpec, output: &'a Path, words: Words) -> Self {
+    /// The job of training on `input` as `spec` says, writing `output` with its loss curve
+    /// drawn by `curve`, in the messages the `words` of the front end.
+    pub fn new(
+        input: &'a InputSpec,
+        spec: &'a TrainSpec,
+        output: &'a Path,
+        words: Words,
+        curve: DrawCurve,
+    ) -> Self {
         Job {
             input,
             spec,
             output,
             words,
+            curve,
         }
     }
 }
@@ -255,7 +272,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Finished> {
         .map_err(|e| anyhow!("the trained model does not validate: {e}"))?;
     trained.write(&files)?;
     let rows: Vec<(u64, &[f64])> = trained.rows.iter().map(|r| (r.0, &r.1[..])).collect();
-    loss_curve(&files.png, &TERM_NAMES, &rows)?;
+    (job.curve)(&files.png, &TERM_NAMES, &rows)?;
     // Outputs that contradict the data are reported: a class reaching far past its contours,
     // or far larger than they allow (`dynaslice info MODEL INPUT` repeats the check).
     let warnings = extent::check_model(&model, &seq, |done, total| observer.checking(done, total))?;

@@ -18,7 +18,7 @@
 //!   training entry (checks, frame, sampler, loop, loss [`journal`], model bytes) that the
 //!   command line, Python and the lab adapt; [`job`]: the whole run with its files (input,
 //!   outputs, checkpoint, loss log and curve, extent warnings) that `dynaslice train` and
-//!   Python's `dynaslice.train` call.
+//!   Python's `dynaslice.train` call, each passing the one function that draws the curve.
 //! - [`model_file`]: a trained network's model file and the metadata it records.
 
 #![warn(missing_docs)]

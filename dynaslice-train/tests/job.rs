@@ -3,6 +3,7 @@
 //! keeps its checkpoint and writes nothing else.
 
 use dynaslice_data::input_spec::InputSpec;
+use dynaslice_figures::plot::loss_curve;
 use dynaslice_test_support::fixtures::write_sequence;
 use dynaslice_train::fit::Observer;
 use dynaslice_train::job::{self, Job, Words};
@@ -59,7 +60,7 @@ fn the_job_writes_the_runs_files_and_checks_the_model() {
     };
     let output = dir.path().join("m.dsm");
     let spec = spec(6);
-    let job = Job::new(&input, &spec, &output, Words::PYTHON);
+    let job = Job::new(&input, &spec, &output, Words::PYTHON, loss_curve);
     let mut record = Record::default();
     let finished = job::run(&job, &mut record).unwrap();
     assert!(!finished.trained.stopped);
@@ -97,7 +98,7 @@ fn a_stopped_job_keeps_its_checkpoint_and_writes_nothing_else() {
     };
     let output = dir.path().join("m.dsm");
     let spec = spec(50);
-    let job = Job::new(&input, &spec, &output, Words::COMMAND_LINE);
+    let job = Job::new(&input, &spec, &output, Words::COMMAND_LINE, loss_curve);
     let mut record = Record {
         stop_at: Some(2),
         ..Record::default()
