@@ -285,6 +285,15 @@ pub(crate) fn fit_checked(
         },
         options.omega_0,
     ));
+    observer.note(&match (&options.motion, spec.no_motion) {
+        (Some(m), _) => format!(
+            "a moving input: each structure's shape is carried by a motion network ({:?}, ω₀ {}, \
+             ω_t^max {})",
+            m.widths, m.omega_0, m.omega_t_max
+        ),
+        (None, true) => "motion network off (--no-motion)".into(),
+        (None, false) => "one annotated time: no motion network".into(),
+    });
     let mut sampler =
         DataSampler::with_progress(seq, domain, counts, &mut |d, t| observer.indexing(d, t));
     let extent_margin = sampler.extents().map(|e| e.margin() as f32);

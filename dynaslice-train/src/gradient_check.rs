@@ -115,7 +115,7 @@ fn reference_loss(
             let speed: f64 = (0..3)
                 .map(|a| ((ahead[a] - behind[a]) / (2.0 * h)).powi(2))
                 .sum();
-            loss += f64::from(warp::velocity_weight()) * speed / n;
+            loss += f64::from(warp::VELOCITY_WEIGHT) * speed / n;
             kinks.push(det - margin);
         }
     }

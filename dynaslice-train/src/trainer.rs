@@ -394,14 +394,31 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 
-    /// A pulsating sphere, r(t) = 0.45 + 0.1·sin(2πt), cut by z-planes at 5 times.
-    struct Sphere;
+    /// A pulsating sphere, r(t) = 0.45 + 0.1·sin(2πt) ([`Ball::Pulsating`]), or a ball of radius
+    /// 0.2 swaying along x, c(t) = 0.4·sin(2πt) ([`Ball::Swaying`]: it moves its diameter between
+    /// two annotated times), cut by z-planes at 5 times.
+    #[derive(Clone, Copy)]
+    enum Ball {
+        Pulsating,
+        Swaying,
+    }
+    use Ball::*;
 
     fn radius(t: f32) -> f32 {
         0.45 + 0.1 * (2.0 * std::f32::consts::PI * t).sin()
     }
 
-    impl Sampler for Sphere {
+    impl Ball {
+        /// Centre (x) and radius at time t.
+        fn at(self, t: f32) -> (f32, f32) {
+            match self {
+                Pulsating => (0.0, radius(t)),
+                Swaying => (0.4 * (2.0 * std::f32::consts::PI * t).sin(), 0.2),
+            }
+        }
+    }
+
+    impl Sampler for Ball {
         fn sample(&mut self, seed: u64, step: u64, b: &mut Batch) {
             let mut rng = Pcg64Mcg::seed_from_u64(seed ^ step.wrapping_mul(0x9E37_79B9_7F4A_7C15));
             let n = 256;
@@ -413,11 +430,11 @@ mod tests {
             b.space_x.clear();
             for _ in 0..n {
                 let t = rng.random_range(0..5) as f32 / 4.0;
-                let z = rng.random_range(-4i32..=4) as f32 * 0.1;
-                let r = radius(t);
+                let (c, r) = self.at(t);
+                let z = rng.random_range(-4i32..=4) as f32 * r / 4.0;
                 let rc = (r * r - z * z).max(0.0).sqrt();
                 let a = rng.random_range(0.0..std::f32::consts::TAU);
-                b.contour_x.push([rc * a.cos(), rc * a.sin(), z, t]);
+                b.contour_x.push([c + rc * a.cos(), rc * a.sin(), z, t]);
                 b.contour_normal.push([a.cos(), a.sin(), 0.0]);
                 b.contour.push(ContourSample {
                     class: 0,
@@ -428,7 +445,7 @@ mod tests {
                     rng.random_range(-1.0..1.0f32),
                 );
                 b.plane_x.push([px, py, z, t]);
-                let sdf2d = (px * px + py * py).sqrt() - rc;
+                let sdf2d = ((px - c) * (px - c) + py * py).sqrt() - rc;
                 b.plane.push(PlaneSample {
                     class: 0,
                     target: sdf2d,
@@ -481,7 +498,7 @@ mod tests {
     #[test]
     fn learns_a_pulsating_sphere() {
         let mut first = None;
-        let out = train(&options(1500, None), 1, &mut Sphere, |p| {
+        let out = train(&options(1500, None), 1, &mut Pulsating, |p| {
             first = first.or(Some(p.loss));
             ControlFlow::Continue(())
         })
@@ -511,6 +528,64 @@ mod tests {
 
     /// The warm-up scales the first steps by (step + 1) / N, reaches the plain schedule at
     /// step N − 1 and leaves every later step unchanged.
+    /// A motion model carries a ball that moves its diameter between annotated times: at the
+    /// times between them it is where it should be, inside at its centre and outside behind it,
+    /// deeper inside at its centre than the same shape network without motion puts it (a
+    /// per-point field blends the two annotated positions, whose signed distances cancel at
+    /// the true centre half-way), and the exported model (file version 2) says so through the
+    /// core.
+    #[test]
+    fn a_motion_model_carries_a_swaying_ball() {
+        let motion = MotionOptions {
+            widths: vec![16, 16],
+            omega_0: 5.0,
+            omega_t_max: 2.0 * std::f32::consts::PI,
+        };
+        let model_file = |motion: Option<MotionOptions>| {
+            let options = TrainOptions {
+                motion,
+                ..options(1500, None)
+            };
+            let out = train(&options, 1, &mut Swaying, |_| ControlFlow::Continue(())).unwrap();
+            out.network
+                .to_writer(
+                    dynaslice_core::Domain::IDENTITY,
+                    vec![("ball".into(), 1)],
+                    String::new(),
+                )
+                .to_bytes()
+        };
+        let (carried, blended) = (model_file(Some(motion)), model_file(None));
+        let carried = dynaslice_core::Model::from_bytes(&carried).unwrap();
+        let blended = dynaslice_core::Model::from_bytes(&blended).unwrap();
+        assert!(carried.motion().is_some() && blended.motion().is_none());
+        let between = [0.125, 0.375, 0.625, 0.875];
+        let centre = |model: &dynaslice_core::Model, t: f32| {
+            let mut f = [0.0];
+            model.eval([Swaying.at(t).0, 0.0, 0.0], t, &mut f).unwrap();
+            f[0]
+        };
+        for t in between.into_iter().chain([0.25]) {
+            let (c, r) = Swaying.at(t);
+            let mut f = [0.0];
+            assert!(
+                centre(&carried, t) < 0.0,
+                "centre at t={t}: {}",
+                centre(&carried, t)
+            );
+            carried.eval([c + r, 0.0, 0.0], t, &mut f).unwrap();
+            assert!(f[0].abs() < 0.05, "surface at t={t}: {}", f[0]);
+            carried.eval([c - 2.0 * r, 0.0, 0.0], t, &mut f).unwrap();
+            assert!(f[0] > 0.02, "outside, behind the ball, at t={t}: {}", f[0]);
+        }
+        let mean = |model| between.iter().map(|&t| centre(model, t)).sum::<f32>() / 4.0;
+        let (with, without) = (mean(&carried), mean(&blended));
+        assert!(
+            with < without,
+            "centre between annotated times: {with} with motion, {without} without"
+        );
+    }
+
     #[test]
     fn warmup_ramps_then_follows_the_cosine() {
         let plain = options(100, None);
@@ -537,11 +612,11 @@ mod tests {
     fn resumed_run_ends_bit_identical() {
         let dir = tempfile::tempdir().unwrap();
         let ckpt = dir.path().join("run.ckpt");
-        let straight = train(&options(30, None), 1, &mut Sphere, |_| {
+        let straight = train(&options(30, None), 1, &mut Pulsating, |_| {
             ControlFlow::Continue(())
         })
         .unwrap();
-        let stopped = train(&options(30, Some(ckpt.clone())), 1, &mut Sphere, |p| {
+        let stopped = train(&options(30, Some(ckpt.clone())), 1, &mut Pulsating, |p| {
             if p.step == 13 {
                 ControlFlow::Break(())
             } else {
@@ -551,7 +626,7 @@ mod tests {
         .unwrap();
         assert_eq!(stopped.steps_done, 13);
         let mut first_step = None;
-        let resumed = train(&options(30, Some(ckpt)), 1, &mut Sphere, |p| {
+        let resumed = train(&options(30, Some(ckpt)), 1, &mut Pulsating, |p| {
             first_step = first_step.or(Some(p.step));
             ControlFlow::Continue(())
         })
@@ -578,7 +653,7 @@ mod tests {
             time_limit: Some(Duration::from_secs_f64(limit)),
             ..options(1_000_000, Some(ckpt.clone()))
         };
-        let stopped = train(&timed(3.0), 1, &mut Sphere, |p| {
+        let stopped = train(&timed(3.0), 1, &mut Pulsating, |p| {
             if p.step == CALIBRATION_STEPS + 3 {
                 ControlFlow::Break(())
             } else {
@@ -605,7 +680,7 @@ mod tests {
                     ..o.clone()
                 },
                 1,
-                &mut Sphere,
+                &mut Pulsating,
                 |p| {
                     assert_eq!(p.steps, planned);
                     rates.push(p.lr);
@@ -654,13 +729,13 @@ mod tests {
                 self.slow
             };
             std::thread::sleep(pause);
-            Sphere.sample(seed, step, b);
+            Pulsating.sample(seed, step, b);
         }
         fn max_set_len(&self) -> usize {
-            Sphere.max_set_len()
+            Pulsating.max_set_len()
         }
         fn fingerprint(&self) -> u64 {
-            Sphere.fingerprint()
+            Pulsating.fingerprint()
         }
     }
 

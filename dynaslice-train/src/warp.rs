@@ -57,18 +57,10 @@ pub fn motion_options(
     off: bool,
     control: bool,
 ) -> Option<MotionOptions> {
-    let env = |k: &str, d: f32| {
-        std::env::var(k)
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(d)
-    };
-    let w = env("XM_W", MOTION_WIDTHS[0] as f32) as u32;
-    let depth = env("XM_D", 2.0) as usize;
     (!off && seq.frames().len() > 1).then(|| MotionOptions {
-        widths: vec![w; depth],
-        omega_0: env("XM_OMEGA", MOTION_OMEGA_0),
-        omega_t_max: temporal_bound(seq, domain, env("XM_C", MOTION_TEMPORAL_FACTOR), control),
+        widths: MOTION_WIDTHS.to_vec(),
+        omega_0: MOTION_OMEGA_0,
+        omega_t_max: temporal_bound(seq, domain, MOTION_TEMPORAL_FACTOR, control),
     })
 }
 
@@ -82,12 +74,7 @@ pub const STRAIN_WEIGHT: f32 = 0.01;
 /// speed, so this term interpolates the motion as a linear interpolation of positions would,
 /// where a per-point field would blend the shapes instead. Small against the data terms, which
 /// pin the positions at the annotated times.
-pub fn velocity_weight() -> f32 {
-    std::env::var("XM_V")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(1e-3)
-}
+pub const VELOCITY_WEIGHT: f32 = 1e-3;
 
 /// δ of the fold hinge ReLU(δ − det(I + J_u)): the warp x ↦ x + u(x, t) keeps a positive
 /// Jacobian determinant with a margin wherever it is sampled, so it does not fold.
@@ -217,16 +204,15 @@ pub fn regulariser(out: &[f32], weight: f32, g: &mut [f32]) -> LossTerms {
 }
 
 /// The motion's velocity term on `n` points of u's stacked [U; ∂U/∂t] (`out`, each n × 3), each
-/// point weighing `weight`: λ_v ‖∂u/∂t‖² ([`velocity_weight`]). Writes its gradient to `g` in
+/// point weighing `weight`: λ_v ‖∂u/∂t‖² ([`VELOCITY_WEIGHT`]). Writes its gradient to `g` in
 /// the same layout (zero on U).
 pub fn velocity(out: &[f32], weight: f32, g: &mut [f32]) -> LossTerms {
     let n = out.len() / 6;
-    let lambda = velocity_weight();
     g[..3 * n].fill(0.0);
     let mut terms = LossTerms::default();
     for (gv, v) in g[3 * n..6 * n].iter_mut().zip(&out[3 * n..6 * n]) {
-        terms.motion += (weight * lambda * v * v) as f64;
-        *gv = weight * lambda * 2.0 * v;
+        terms.motion += (weight * VELOCITY_WEIGHT * v * v) as f64;
+        *gv = weight * VELOCITY_WEIGHT * 2.0 * v;
     }
     terms
 }
