@@ -94,11 +94,11 @@ impl PyModel {
     }
 
     /// The one time of a static model (trained on one timestep: ω_t^max = 0, every ω_t
-    /// clamped to 0, so f does not depend on t; dynaslice-model's `ModelFile::is_static`),
+    /// clamped to 0, so f does not depend on t; dynaslice-core's `Model::is_static`),
     /// the start of its nominal range; `None` for a moving model.
     fn static_time(&self) -> Option<f32> {
         let model = &self.model();
-        (model.omega_t_max() == 0.0).then(|| model.domain().time_range().0)
+        model.is_static().then(|| model.domain().time_range().0)
     }
 
     /// The times a computation at `times` runs at ([`ModelFile::times_for`], the command
