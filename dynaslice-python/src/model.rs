@@ -324,6 +324,23 @@ impl PyModel {
         Ok(Array1::from_vec(values).into_pyarray(py))
     }
 
+    /// A motion model's displacement u at each point: (N, 3) float32, world units, the offset
+    /// that carries the point at its time to its canonical (reference-shape) position (zero
+    /// for a model without motion). Times as for `sdf`.
+    fn displacement<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        t: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let (n, a) = self.query(py, points, t, Query::Displacement)?;
+        Ok(
+            Array2::from_shape_vec((n, 3), a.displacement.into_flattened())
+                .expect("N × 3 values")
+                .into_pyarray(py),
+        )
+    }
+
     /// Surfaces at world time `t`: for each requested class (keys: numbers 1..K or names;
     /// empty: all), (positions (V, 3) float32, triangles (F, 3) int64, normals (V, 3) float32,
     /// normal velocity (V,) float32), as `dynaslice mesh` extracts them.

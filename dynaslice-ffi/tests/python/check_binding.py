@@ -2,8 +2,8 @@
 
 Usage: check_binding.py MODEL.dsm EXPECTED.json   (DYNASLICE_LIBRARY names the library)
 
-EXPECTED.json holds the class table and a few points with their distances, gradients, displacements (IEEE
-float32 bit patterns) and labels; every value must match bit for bit.
+EXPECTED.json holds the class table and a few points with their distances, gradients,
+displacements (IEEE float32 bit patterns) and labels; every value must match bit for bit.
 """
 
 import json
