@@ -68,7 +68,14 @@ pub fn seeds(target: &str, work: &Path) -> Result<Vec<Named>, Error> {
 /// motion model (a version-2 file) with a motion network of its own depth and widths, so the
 /// version-2 fields and the warp's evaluation are reached too.
 pub fn model_files() -> Result<Vec<Named>, Error> {
-    let motion: [&[u32]; 6] = [&[1], &[3], &[2, 5], &[4, 4, 4], &[7], &[1, 1, 1, 1, 1, 1, 1, 1]];
+    let motion: [&[u32]; 6] = [
+        &[1],
+        &[3],
+        &[2, 5],
+        &[4, 4, 4],
+        &[7],
+        &[1, 1, 1, 1, 1, 1, 1, 1],
+    ];
     let shapes: [(&[u32], u32); 6] = [
         (&[1], 1),
         (&[4], 2),
