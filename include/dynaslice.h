@@ -264,6 +264,20 @@ int ds_eval_jacobian(const DsModel *model,
 int ds_label(const DsModel *model, const float *xyz, float t, uint32_t *label);
 
 /**
+ * Stores in `out[0..3]` the displacement u at world point `xyz` and world time `t` of a motion
+ * model (f(x, t) = g(x + u, t), g its shape network read in world coordinates): the offset, in
+ * world units, that carries `xyz` at time `t` to its canonical (reference-shape) position.
+ * A model without motion gives 0, 0, 0; a NaN or infinite point gives NaN (and returns 0).
+ * Times as in `ds_eval`: outside the model's range, `DS_E_TIME_OUT_OF_RANGE` and nothing
+ * written. `DS_E_INVALID_ARGUMENT` when `out` overlaps `xyz`.
+ *
+ * # Safety
+ * `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `out` NULL or 3
+ * writable floats not overlapping `xyz`.
+ */
+int ds_displacement(const DsModel *model, const float *xyz, float t, float *out);
+
+/**
  * The K distances at each of `n` points: point i is `xyz[3i..3i+3]` at time `t[i]`, and its
  * answers go to `sdf[iK..(i+1)K]` (row-major, `n * K` floats). NaN or infinite points give NaN
  * rows. Every `t[i]` must lie in the model's time range (`ds_time_range`): when one does not
@@ -308,6 +322,21 @@ int ds_label_batch(const DsModel *model,
                    const float *xyz,
                    const float *t,
                    uint32_t *labels);
+
+/**
+ * The displacement (see `ds_displacement`) at each of `n` points into `out[3i..3i+3]` (`3n`
+ * floats), with the batch kernels of `ds_eval_batch` (same threading and rounding notes, and
+ * the same refusal of a time outside the model's range: nothing written).
+ *
+ * # Safety
+ * `model` must be NULL or a live model; `xyz` NULL or `3n` readable floats; `t` NULL or `n`
+ * readable floats; `out` NULL or `3n` writable floats overlapping neither input.
+ */
+int ds_displacement_batch(const DsModel *model,
+                          size_t n,
+                          const float *xyz,
+                          const float *t,
+                          float *out);
 
 /**
  * A static description of a return code; never NULL, also for unknown codes.

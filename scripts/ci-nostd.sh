@@ -117,7 +117,8 @@ if [ "$have_thumb" -eq 1 ]; then
     }
     full=firmware/cortex-m4/$elf
     base=firmware/cortex-m4/target/baseline.elf
-    models=$(($(stat -c %s "$GEN/model_f32.dsm") + $(stat -c %s "$GEN/model_f16.dsm")))
+    models=$(($(stat -c %s "$GEN/model_f32.dsm") + $(stat -c %s "$GEN/model_f16.dsm") +
+        $(stat -c %s "$GEN/model_motion.dsm")))
     text=$(($(section "$full" .text) - $(section "$base" .text)))
     rodata=$(($(section "$full" .rodata) - $(section "$base" .rodata) - models))
     core_fns=$(readelf -sW --demangle "$full" |

@@ -9,8 +9,12 @@
 //! one, so "best" ratios are the steadier comparison between benchmarks run seconds apart.
 //!
 //! FLOP convention: 2 · [`Layout::macs_per_point`] per point for f, 4x that for f and ∇ₓf
-//! (primal and three tangent rows go through every matrix product). Sines, cosines, biases and
-//! the first layer's copies are not counted, so GFLOP/s is the rate of useful matrix work.
+//! (primal and three tangent rows go through every matrix product); for a motion model the sum
+//! of both networks'. Sines, cosines, biases, the first layer's copies and the chain rule's few
+//! multiply-adds are not counted, so GFLOP/s is the rate of useful matrix work.
+//!
+//! Motion models (`+u…` rows) are the same shape network moved by a motion network, measured in
+//! the same run as the shape network alone, so their time ratio is the cost of the motion.
 //!
 //! The sgemm peak is the best of two libraries, measured in the same run: `gemm` (AVX2+FMA on
 //! stable Rust; its AVX-512 kernels need its `nightly` feature, so run the bench with
@@ -157,15 +161,26 @@ fn sgemm(group: &mut BenchmarkGroup<WallTime>, m: usize, k: usize, n: usize) -> 
         .collect()
 }
 
-/// f and f+∇ₓf, single points and batches, for one model.
-fn model(c: &mut Criterion, name: &str, widths: &[u32], weight_type: WeightType) -> Vec<Row> {
-    let mut writer = ModelWriter::random_siren(widths, CLASSES, 1);
+/// f and f+∇ₓf, single points and batches, for one model (a motion model when `motion` gives
+/// its motion network's widths).
+fn model(
+    c: &mut Criterion,
+    name: &str,
+    widths: &[u32],
+    motion: Option<&[u32]>,
+    weight_type: WeightType,
+) -> Vec<Row> {
+    let mut writer = match motion {
+        Some(m) => ModelWriter::random_motion(widths, CLASSES, m, 1),
+        None => ModelWriter::random_siren(widths, CLASSES, 1),
+    };
     writer.weight_type = weight_type;
     let bytes = ModelBytes::copy_from(&writer.to_bytes());
     let model = bytes.model().expect("valid benchmark model");
     let layout: &Layout = model.layout();
     let k = layout.num_classes();
-    let macs = layout.macs_per_point() as f64;
+    let motion_macs = model.motion().map_or(0, |m| m.layout().macs_per_point());
+    let macs = (layout.macs_per_point() + motion_macs) as f64;
     let dtype = match weight_type {
         WeightType::F32 => "f32",
         WeightType::F16 => "f16",
@@ -248,9 +263,26 @@ fn main() {
     // A firmware size: width 64, 3 hidden layers.
     let firmware: &[u32] = &[64; 4];
     for weight_type in [WeightType::F32, WeightType::F16] {
-        rows.extend(model(&mut c, "w256x4", paper, weight_type));
-        rows.extend(model(&mut c, "w64x4", firmware, weight_type));
+        rows.extend(model(&mut c, "w256x4", paper, None, weight_type));
+        rows.extend(model(&mut c, "w64x4", firmware, None, weight_type));
     }
+    // Motion models: the paper's shape network moved by a motion network of half its width,
+    // and by one as large as itself.
+    let (half, same): (&[u32], &[u32]) = (&[128; 3], paper);
+    rows.extend(model(
+        &mut c,
+        "w256x4+u128x3",
+        paper,
+        Some(half),
+        WeightType::F32,
+    ));
+    rows.extend(model(
+        &mut c,
+        "w256x4+u256x4",
+        paper,
+        Some(same),
+        WeightType::F32,
+    ));
 
     // GFLOP/s of a row from one statistic of its times, and the sgemm peak for that statistic.
     let gflops = |r: &Row, stat: Stat| r.times.map(|t| r.flops / stat(t) * 1e-9);

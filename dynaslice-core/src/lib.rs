@@ -1,9 +1,12 @@
 //! Evaluation of DynaSlice 4D multi-class neural signed distance functions.
 //!
 //! A DynaSlice model is one SIREN f_θ: R³ × [t₀, t₁] → R^K with one signed-distance channel per
-//! anatomical structure (paper Eq. 1, 9). This crate reads the model file format
-//! ([`format`], documented byte by byte in `docs/model-format.md`), and evaluates f, ∇ₓf, ∂f/∂t
-//! and the Eq. 11 argmin labels at world coordinates and world times ([`Model`]).
+//! anatomical structure (paper Eq. 1, 9), or a motion model: that network g (one shape per
+//! structure) read through a second SIREN u, the motion, f(x, t) = g(x_n + u(x_n, t_n), t_n)
+//! ([`Model::motion`], [`Model::displacement`]). This crate reads the model file format
+//! ([`format`], versions 1 and 2, documented byte by byte in `docs/model-format.md`), and
+//! evaluates f, ∇ₓf, ∂f/∂t and the Eq. 11 argmin labels at world coordinates and world times
+//! ([`Model`]) for both kinds.
 //!
 //! It is written for scanner firmware as much as for desktop viewers:
 //! - `#![no_std]`, no heap: every buffer is a caller's slice, a fixed-size stack array, or a

@@ -739,6 +739,36 @@ pub unsafe extern "C" fn ds_label(
     })
 }
 
+/// Stores in `out[0..3]` the displacement u at world point `xyz` and world time `t` of a motion
+/// model (f(x, t) = g(x + u, t), g its shape network read in world coordinates): the offset, in
+/// world units, that carries `xyz` at time `t` to its canonical (reference-shape) position.
+/// A model without motion gives 0, 0, 0; a NaN or infinite point gives NaN (and returns 0).
+/// Times as in `ds_eval`: outside the model's range, `DS_E_TIME_OUT_OF_RANGE` and nothing
+/// written. `DS_E_INVALID_ARGUMENT` when `out` overlaps `xyz`.
+///
+/// # Safety
+/// `model` must be NULL or a live model; `xyz` NULL or 3 readable floats; `out` NULL or 3
+/// writable floats not overlapping `xyz`.
+#[no_mangle]
+pub unsafe extern "C" fn ds_displacement(
+    model: *const DsModel,
+    xyz: *const f32,
+    t: f32,
+    out: *mut f32,
+) -> c_int {
+    guard("ds_displacement", || {
+        // SAFETY: per this function's contract.
+        let (model, x) = unsafe { (model_ref(model)?.model(), point(xyz)?) };
+        check_array(out, 3, "out")?;
+        disjoint(&[span("xyz", xyz, 3), span("out", out, 3)])?;
+        check_time(model, t)?;
+        let u = model.displacement(x, t).map_err(Failure::model)?;
+        // SAFETY: per this function's contract; disjoint from `xyz` (checked above).
+        unsafe { output(out, 3, "out") }?.copy_from_slice(&u);
+        Ok(DS_OK)
+    })
+}
+
 /// The inputs of a batch call, checked: n points of 3 floats and n times.
 ///
 /// # Safety
@@ -901,6 +931,34 @@ pub unsafe extern "C" fn ds_label_batch(
         let out = unsafe { batch_output(labels, n, "labels", n, xyz, t) }?;
         check_times(model, times)?;
         with_scratch(|s| model.label_batch(s, points, times, out))?.map_err(Failure::model)?;
+        Ok(DS_OK)
+    })
+}
+
+/// The displacement (see `ds_displacement`) at each of `n` points into `out[3i..3i+3]` (`3n`
+/// floats), with the batch kernels of `ds_eval_batch` (same threading and rounding notes, and
+/// the same refusal of a time outside the model's range: nothing written).
+///
+/// # Safety
+/// `model` must be NULL or a live model; `xyz` NULL or `3n` readable floats; `t` NULL or `n`
+/// readable floats; `out` NULL or `3n` writable floats overlapping neither input.
+#[no_mangle]
+pub unsafe extern "C" fn ds_displacement_batch(
+    model: *const DsModel,
+    n: usize,
+    xyz: *const f32,
+    t: *const f32,
+    out: *mut f32,
+) -> c_int {
+    guard("ds_displacement_batch", || {
+        // SAFETY: per this function's contract.
+        let (model, (points, times)) =
+            unsafe { (model_ref(model)?.model(), batch_inputs(n, xyz, t)?) };
+        // `[f32; 3]` rows: the element-count check also bounds the float count 3n.
+        // SAFETY: per this function's contract.
+        let u = unsafe { batch_output(out.cast::<[f32; 3]>(), n, "out", n, xyz, t) }?;
+        check_times(model, times)?;
+        with_scratch(|s| model.displacement_batch(s, points, times, u))?.map_err(Failure::model)?;
         Ok(DS_OK)
     })
 }
@@ -1230,9 +1288,11 @@ mod tests {
 
     #[test]
     fn the_size_limit_admits_the_largest_model() {
-        // Every dimension at its limit must still load; one byte more is not a model.
+        // Every dimension at its limit, the motion network's too, must still load; one byte
+        // more is not a model.
         let widths = [format::MAX_WIDTH as u32; format::MAX_SINE_LAYERS];
-        let mut w = format::ModelWriter::random_siren(&widths, format::MAX_CLASSES as u32, 1);
+        let k = format::MAX_CLASSES as u32;
+        let mut w = format::ModelWriter::random_motion(&widths, k, &widths, 1);
         w.metadata = "x".repeat(format::MAX_METADATA);
         let bytes = w.to_bytes();
         assert!(bytes.len() as u64 <= format::max_file_size());

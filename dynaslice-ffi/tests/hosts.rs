@@ -87,10 +87,18 @@ fn run(cmd: &mut Command) -> String {
     stdout
 }
 
+/// Both kinds of model every host is run on: without motion (a version-1 file) and with it.
+const KINDS: [bool; 2] = [false, true];
+
 /// The test model: three classes with multi-byte UTF-8 in a name, anisotropic world units,
-/// a time range not starting at 0 and metadata, so every world ↔ normalised factor is exercised.
-fn test_model() -> Vec<u8> {
-    let mut w = ModelWriter::random_siren(&[32, 32], 3, 2024);
+/// a time range not starting at 0 and metadata, so every world ↔ normalised factor is exercised;
+/// with `motion`, the same shape network moved by a motion network (a version-2 file), which
+/// the hosts query through the same calls.
+fn test_model(motion: bool) -> Vec<u8> {
+    let mut w = match motion {
+        true => ModelWriter::random_motion(&[32, 32], 3, &[24, 16], 2024),
+        false => ModelWriter::random_siren(&[32, 32], 3, 2024),
+    };
     w.domain = Domain {
         center: [10.0, -5.0, 3.0],
         scale: [40.0, 50.0, 60.0],
@@ -186,8 +194,9 @@ fn expected_header(bytes: &[u8]) -> String {
             rows.join(",\n")
         )
     };
-    let (mut f, mut g, mut d, mut lab) = (vec![], vec![], vec![], vec![]);
+    let (mut f, mut g, mut d, mut lab, mut u) = (vec![], vec![], vec![], vec![], vec![]);
     for (x, &t) in xyz.iter().zip(&t) {
+        u.push(model.displacement(*x, t).unwrap().to_vec());
         let (mut fk, mut gk, mut dk) = (vec![0.0; k], vec![[0.0; 3]; k], vec![0.0; k]);
         model
             .eval_jacobian(*x, t, &mut fk, &mut gk, &mut dk)
@@ -209,6 +218,16 @@ fn expected_header(bytes: &[u8]) -> String {
         .eval_grad_batch(&mut scratch, &xyz, &t, &mut bf2, &mut bg)
         .unwrap();
     model.label_batch(&mut scratch, &xyz, &t, &mut bl).unwrap();
+    let mut bu = vec![[0.0; 3]; POINTS];
+    model
+        .displacement_batch(&mut scratch, &xyz, &t, &mut bu)
+        .unwrap();
+    writeln!(
+        h,
+        "#define REF_MOTION {}",
+        u8::from(model.motion().is_some())
+    )
+    .unwrap();
     h += &table(
         "REF_XYZT",
         xyz.iter()
@@ -219,6 +238,8 @@ fn expected_header(bytes: &[u8]) -> String {
     h += &table("REF_F", f);
     h += &table("REF_GRAD", g);
     h += &table("REF_DFDT", d);
+    h += &table("REF_DISP", u);
+    h += &table("REF_BATCH_DISP", bu.iter().map(|r| r.to_vec()).collect());
     writeln!(
         h,
         "static const uint32_t REF_LABEL[] = {{{}}};",
@@ -264,9 +285,10 @@ fn shared_link(libs: &Path) -> Vec<String> {
     ]
 }
 
-/// Writes the test model and the C test's expected values; returns the model path.
-fn prepare(dir: &Path) -> PathBuf {
-    let bytes = test_model();
+/// Writes the test model (with `motion` or not) and the C test's expected values; returns the
+/// model path.
+fn prepare(dir: &Path, motion: bool) -> PathBuf {
+    let bytes = test_model(motion);
     let model = dir.join("model.dsm");
     std::fs::write(&model, &bytes).unwrap();
     std::fs::write(dir.join("expected.h"), expected_header(&bytes)).unwrap();
@@ -307,12 +329,17 @@ fn c_host_static_and_shared() {
         ("static", static_link(&libs)),
         ("shared", shared_link(&libs)),
     ] {
-        let dir = scratch_dir(&format!("c-{name}"));
-        let model = prepare(&dir);
-        let exe = build_c_test(&dir, "api_test", &[], link);
-        // Natively the batch kernels are the ones Rust used: answers must match bit for bit.
-        let out = run(Command::new(&exe).arg(&model).arg(&dir).arg("exact"));
-        assert!(out.contains(" 0 failed"), "{out}");
+        for motion in KINDS {
+            let dir = scratch_dir(&format!(
+                "c-{name}-{}",
+                if motion { "motion" } else { "v1" }
+            ));
+            let model = prepare(&dir, motion);
+            let exe = build_c_test(&dir, "api_test", &[], link.clone());
+            // Natively the batch kernels are the ones Rust used: answers must match bit for bit.
+            let out = run(Command::new(&exe).arg(&model).arg(&dir).arg("exact"));
+            assert!(out.contains(" 0 failed"), "{out}");
+        }
     }
 }
 
@@ -322,9 +349,16 @@ fn c_host_under_valgrind() {
         return;
     }
     let libs = lib_dir();
-    let dir = scratch_dir("valgrind");
-    let model = prepare(&dir);
-    let exe = build_c_test(&dir, "api_test", &[], shared_link(&libs));
+    for motion in KINDS {
+        valgrind_run(&libs, motion);
+    }
+}
+
+/// One valgrind run of the C host on the test model (`motion` or not).
+fn valgrind_run(libs: &Path, motion: bool) {
+    let dir = scratch_dir(&format!("valgrind-{motion}"));
+    let model = prepare(&dir, motion);
+    let exe = build_c_test(&dir, "api_test", &[], shared_link(libs));
     let log = dir.join("valgrind.log");
     // Valgrind's CPU has no AVX-512, so the batch kernels may differ from the ones Rust used
     // natively: "approx" compares batch answers to a tolerance instead of bit for bit.
@@ -417,9 +451,16 @@ fn c_host_under_sanitizers() {
         return;
     }
     let libs = lib_dir();
-    let dir = scratch_dir("sanitizers");
-    let model = prepare(&dir);
-    let exe = build_c_test(&dir, "api_test", &SANITIZE, shared_link(&libs));
+    for motion in KINDS {
+        sanitizer_run(&libs, motion);
+    }
+}
+
+/// One sanitizer run of the C host on the test model (`motion` or not).
+fn sanitizer_run(libs: &Path, motion: bool) {
+    let dir = scratch_dir(&format!("sanitizers-{motion}"));
+    let model = prepare(&dir, motion);
+    let exe = build_c_test(&dir, "api_test", &SANITIZE, shared_link(libs));
     // To files, not pipes: nothing to drain while waiting with a deadline.
     let (out_path, err_path) = (dir.join("stdout.txt"), dir.join("stderr.txt"));
     let start = Instant::now();
@@ -469,8 +510,6 @@ fn cpp_host_eight_threads() {
     }
     let libs = lib_dir();
     let dir = scratch_dir("cpp");
-    let model = dir.join("model.dsm");
-    std::fs::write(&model, test_model()).unwrap();
     let exe = dir.join("threads_test");
     run(Command::new("g++")
         .args([
@@ -487,8 +526,12 @@ fn cpp_host_eight_threads() {
         .arg("-o")
         .arg(&exe)
         .args(shared_link(&libs)));
-    let out = run(Command::new(&exe).arg(&model).arg("8"));
-    assert!(out.contains("8 threads: bit-identical"), "{out}");
+    for motion in KINDS {
+        let model = dir.join(format!("model-{motion}.dsm"));
+        std::fs::write(&model, test_model(motion)).unwrap();
+        let out = run(Command::new(&exe).arg(&model).arg("8"));
+        assert!(out.contains("8 threads: bit-identical"), "{out}");
+    }
 }
 
 /// The guide's example (docs/c-api.md) is examples/c/quickstart.c verbatim, and it runs.
@@ -510,7 +553,7 @@ fn docs_example_compiles_and_runs() {
     let libs = lib_dir();
     let dir = scratch_dir("quickstart");
     let model = dir.join("model.dsm");
-    std::fs::write(&model, test_model()).unwrap();
+    std::fs::write(&model, test_model(false)).unwrap();
     let exe = dir.join("quickstart");
     run(Command::new("gcc")
         .args(["-std=c11", "-Wall", "-Wextra", "-Werror", "-pedantic"])
@@ -520,7 +563,7 @@ fn docs_example_compiles_and_runs() {
         .arg(&exe)
         .args(shared_link(&libs)));
     let out = run(Command::new(&exe).arg(&model));
-    let m = Model::from_bytes(&test_model()).map(|m| {
+    let m = Model::from_bytes(&test_model(false)).map(|m| {
         let (lo, hi) = m.domain().bounds();
         let centre = std::array::from_fn(|d| 0.5 * (lo[d] + hi[d]));
         (m.label(centre, m.domain().time_range().0), m.num_classes())
@@ -583,7 +626,7 @@ fn cmake_find_package() {
         .arg(format!("-DCMAKE_PREFIX_PATH={}", prefix.display())));
     run(Command::new("cmake").arg("--build").arg(&build));
     let model = dir.join("model.dsm");
-    std::fs::write(&model, test_model()).unwrap();
+    std::fs::write(&model, test_model(false)).unwrap();
     for exe in ["shared", "static"] {
         let out = run(Command::new(build.join(exe))
             .env("LD_LIBRARY_PATH", prefix.join("lib"))
@@ -622,7 +665,7 @@ fn install_and_pkg_config() {
     };
     assert_eq!(pc(&["--modversion"]), [env!("CARGO_PKG_VERSION")]);
     let model = dir.join("model.dsm");
-    std::fs::write(&model, test_model()).unwrap();
+    std::fs::write(&model, test_model(false)).unwrap();
     for (name, args) in [
         ("shared", &["--cflags", "--libs"][..]),
         ("static", &["--cflags", "--libs", "--static"][..]),
@@ -660,8 +703,15 @@ fn python_ctypes_binding() {
         return;
     }
     let libs = lib_dir();
-    let dir = scratch_dir("python");
-    let bytes = test_model();
+    for motion in KINDS {
+        python_run(&libs, motion);
+    }
+}
+
+/// The ctypes binding on the test model (`motion` or not), against the Rust values.
+fn python_run(libs: &Path, motion: bool) {
+    let dir = scratch_dir(&format!("python-{motion}"));
+    let bytes = test_model(motion);
     let path = dir.join("model.dsm");
     std::fs::write(&path, &bytes).unwrap();
     let model = Model::from_bytes(&bytes).unwrap();
@@ -680,12 +730,14 @@ fn python_ctypes_binding() {
                 .join(", ")
         };
         cases.push(format!(
-            "{{\"xyz\": [{}], \"t\": {}, \"f\": [{}], \"grad\": [{}], \"label\": {}}}",
+            "{{\"xyz\": [{}], \"t\": {}, \"f\": [{}], \"grad\": [{}], \"label\": {}, \
+             \"displacement\": [{}]}}",
             to_bits(&xyz[i]),
             t[i].to_bits(),
             to_bits(&f),
             to_bits(g.as_flattened()),
-            model.label(xyz[i], t[i])
+            model.label(xyz[i], t[i]),
+            to_bits(&model.displacement(xyz[i], t[i]).unwrap())
         ));
     }
     let names: Vec<String> = model

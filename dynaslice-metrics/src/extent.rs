@@ -281,7 +281,7 @@ pub const CHECK_FRAMES: usize = 5;
 /// times evenly over the model's time range without it.
 pub fn check_times(model: &Model, seq: Option<&Sequence>) -> Vec<f32> {
     let (t0, t1) = model.domain().time_range();
-    if model.omega_t_max() == 0.0 {
+    if model.is_static() {
         return vec![t0];
     }
     let Some(seq) = seq else {

@@ -115,10 +115,11 @@ impl ModelFile {
     }
 
     /// A static model does not depend on time: trained on a single timestep, where the trainer
-    /// sets ω_t^max = 0 and every ω_t is clamped to 0 (dynaslice-train's `temporal_bound`).
+    /// sets ω_t^max = 0 and every ω_t is clamped to 0 (dynaslice-train's `temporal_bound`), in
+    /// the motion network too for a motion model ([`dynaslice_core::Model::is_static`]).
     /// Its time range is then a nominal one unit from the frame's time.
     pub fn is_static(&self) -> bool {
-        self.model().omega_t_max() == 0.0
+        self.model().is_static()
     }
 
     /// The time of `option`: the given one, checked against the time range, or for a static

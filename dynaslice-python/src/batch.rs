@@ -269,6 +269,8 @@ pub enum Query {
     Jacobian,
     /// Eq. 11 label indices (0 background, k class k, [`UNDEFINED_LABEL`] for non-finite f).
     Labels,
+    /// A motion model's displacement u (world units; zero without motion).
+    Displacement,
 }
 
 /// The answers of a batch query, point-major (`f[i*K + k]`); the buffers a query does not
@@ -283,6 +285,8 @@ pub struct Answers {
     pub dfdt: Vec<f32>,
     /// Label indices, N.
     pub labels: Vec<u32>,
+    /// Displacements, N.
+    pub displacement: Vec<[f32; 3]>,
 }
 
 /// The output buffers of one chunk.
@@ -293,6 +297,7 @@ struct Task<'o> {
     grad: &'o mut [[f32; 3]],
     dfdt: &'o mut [f32],
     labels: &'o mut [u32],
+    displacement: &'o mut [[f32; 3]],
 }
 
 /// Splits `v` into chunks of `size` elements (an empty `v` gives `count` empty chunks).
@@ -315,7 +320,7 @@ pub fn evaluate(
     let mut out = Answers::default();
     // Value buffers are written in full before being read: zeroed (calloc) memory is the
     // cheapest safe start.
-    if query != Query::Labels {
+    if matches!(query, Query::Values | Query::Gradient | Query::Jacobian) {
         out.f = vec![0.0; n * k];
     }
     if matches!(query, Query::Gradient | Query::Jacobian) {
@@ -327,20 +332,25 @@ pub fn evaluate(
     if query == Query::Labels {
         out.labels = vec![0; n];
     }
+    if query == Query::Displacement {
+        out.displacement = vec![[0.0; 3]; n];
+    }
     let count = n.div_ceil(CHUNK);
     let tasks: Vec<Task> = split(&mut out.f, CHUNK * k, count)
         .into_iter()
         .zip(split(&mut out.grad, CHUNK * k, count))
         .zip(split(&mut out.dfdt, CHUNK * k, count))
         .zip(split(&mut out.labels, CHUNK, count))
+        .zip(split(&mut out.displacement, CHUNK, count))
         .enumerate()
-        .map(|(c, (((f, grad), dfdt), labels))| Task {
+        .map(|(c, ((((f, grad), dfdt), labels), displacement))| Task {
             start: c * CHUNK,
             n: CHUNK.min(n - c * CHUNK),
             f,
             grad,
             dfdt,
             labels,
+            displacement,
         })
         .collect();
     tasks.into_par_iter().try_for_each_init(
@@ -355,6 +365,7 @@ pub fn evaluate(
                     model.eval_jacobian_batch(s, xyz, t, task.f, task.grad, task.dfdt)
                 }
                 Query::Labels => model.label_batch(s, xyz, t, task.labels),
+                Query::Displacement => model.displacement_batch(s, xyz, t, task.displacement),
             })
         },
     )?;

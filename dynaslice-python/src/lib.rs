@@ -61,12 +61,21 @@ fn kernel_name() -> &'static str {
     dynaslice_core::kernel_name()
 }
 
-/// A model with random weights (a SIREN with the given hidden widths and K classes): for tests
-/// and benchmarks that need a model of a given size without training one.
+/// A model with random weights (a SIREN with the given hidden widths and K classes; with
+/// `motion_widths`, a motion model whose motion network has those widths): for tests and
+/// benchmarks that need a model of a given size without training one.
 #[pyfunction]
-#[pyo3(signature = (widths, num_classes, seed = 0))]
-fn random_model(widths: Vec<u32>, num_classes: u32, seed: u64) -> PyResult<model::PyModel> {
-    let mut writer = ModelWriter::random_siren(&widths, num_classes, seed);
+#[pyo3(signature = (widths, num_classes, seed = 0, motion_widths = None))]
+fn random_model(
+    widths: Vec<u32>,
+    num_classes: u32,
+    seed: u64,
+    motion_widths: Option<Vec<u32>>,
+) -> PyResult<model::PyModel> {
+    let mut writer = match motion_widths {
+        Some(m) => ModelWriter::random_motion(&widths, num_classes, &m, seed),
+        None => ModelWriter::random_siren(&widths, num_classes, seed),
+    };
     writer.metadata = "random weights (dynaslice.random_model)".into();
     let bytes = writer
         .try_to_bytes()

@@ -94,11 +94,11 @@ impl PyModel {
     }
 
     /// The one time of a static model (trained on one timestep: ω_t^max = 0, every ω_t
-    /// clamped to 0, so f does not depend on t; dynaslice-model's `ModelFile::is_static`),
+    /// clamped to 0, so f does not depend on t; dynaslice-core's `Model::is_static`),
     /// the start of its nominal range; `None` for a moving model.
     fn static_time(&self) -> Option<f32> {
         let model = &self.model();
-        (model.omega_t_max() == 0.0).then(|| model.domain().time_range().0)
+        model.is_static().then(|| model.domain().time_range().0)
     }
 
     /// The times a computation at `times` runs at ([`ModelFile::times_for`], the command
@@ -322,6 +322,23 @@ impl PyModel {
             a.labels.into_iter().map(|l| table[l as usize]).collect()
         };
         Ok(Array1::from_vec(values).into_pyarray(py))
+    }
+
+    /// A motion model's displacement u at each point: (N, 3) float32, world units, the offset
+    /// that carries the point at its time to its canonical (reference-shape) position (zero
+    /// for a model without motion). Times as for `sdf`.
+    fn displacement<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        t: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let (n, a) = self.query(py, points, t, Query::Displacement)?;
+        Ok(
+            Array2::from_shape_vec((n, 3), a.displacement.into_flattened())
+                .expect("N × 3 values")
+                .into_pyarray(py),
+        )
     }
 
     /// Surfaces at world time `t`: for each requested class (keys: numbers 1..K or names;

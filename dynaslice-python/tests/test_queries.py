@@ -103,6 +103,27 @@ def test_labels_are_eq11_argmin_with_label_values(model):
     assert set(np.unique(index)) == {0, 1, 2}, "the fixture should show every label"
 
 
+def test_displacement_of_both_kinds(model):
+    p = points_in(model, N, seed=11)
+    # Without motion: zero everywhere.
+    u = model.displacement(p, 0.3)
+    assert u.shape == (N, 3) and u.dtype == np.float32
+    assert not u.any()
+    # A motion model: the offset to the canonical position, per point and time, every chunk
+    # as if queried alone; its distances and derivatives through the same calls.
+    moving = dynaslice.random_model([32, 32], 2, seed=7, motion_widths=[16, 16])
+    times = np.linspace(0.0, 1.0, N)
+    u = moving.displacement(p, times)
+    assert u.shape == (N, 3) and np.isfinite(u).all() and np.abs(u).max() > 1e-3
+    for i in (0, 4095, 4096, N - 1):
+        np.testing.assert_array_equal(u[i], moving.displacement(p[i:i + 1], times[i])[0])
+    f, g, d = moving.jacobian(p, 0.4)
+    assert f.shape == (N, 2) and g.shape == (N, 2, 3) and d.shape == (N, 2)
+    assert moving.displacement(np.zeros((0, 3)), 0.0).shape == (0, 3)
+    with pytest.raises(ValueError, match="outside the model's time range"):
+        moving.displacement(p, 2.0)
+
+
 def test_bad_inputs_raise_value_errors(model):
     p = points_in(model, 10)
     with pytest.raises(ValueError, match=r"shape \(N, 3\), not \[10, 2\]"):

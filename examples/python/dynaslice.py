@@ -100,6 +100,7 @@ def load_library(path=None):
             [model_p, _c_float_p, ctypes.c_float, _c_float_p, _c_float_p, ctypes.c_size_t],
         ),
         "ds_label": (ctypes.c_int, [model_p, _c_float_p, ctypes.c_float, _c_uint32_p]),
+        "ds_displacement": (ctypes.c_int, [model_p, _c_float_p, ctypes.c_float, _c_float_p]),
         "ds_eval_batch": (
             ctypes.c_int,
             [model_p, ctypes.c_size_t, _c_float_p, _c_float_p, _c_float_p],
@@ -225,6 +226,14 @@ class Model:
         point = (ctypes.c_float * 3)(*xyz)
         self._check(self._lib.ds_label(self._model(), point, t, ctypes.byref(out)))
         return out.value
+
+    def displacement(self, xyz, t):
+        """A motion model's displacement u at (xyz, t), world units: xyz + u is the point's
+        canonical (reference-shape) position. (0, 0, 0) for a model without motion."""
+        out = (ctypes.c_float * 3)()
+        point = (ctypes.c_float * 3)(*xyz)
+        self._check(self._lib.ds_displacement(self._model(), point, t, out))
+        return tuple(out)
 
     @staticmethod
     def _batch_inputs(points, times):

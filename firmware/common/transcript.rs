@@ -6,8 +6,8 @@
 //! self-contained Cargo project with `dynaslice-core` as its only DynaSlice dependency.
 //!
 //! The transcript is a list of 32-bit words: for each model, for each query point, the K values
-//! f, the 3K gradient components ∇ₓf, the K time derivatives ∂f/∂t (all as IEEE bits) and the
-//! Eq. 11 label. Single-point evaluation uses the portable kernels on every target and Rust never
+//! f, the 3K gradient components ∇ₓf, the K time derivatives ∂f/∂t, the 3 components of the
+//! displacement u (zero for a model without motion; all as IEEE bits) and the Eq. 11 label. Single-point evaluation uses the portable kernels on every target and Rust never
 //! contracts `a * b + c` into a fused multiply-add, so the words are expected to match bit for
 //! bit across x86-64 and Cortex-M4F (both IEEE binary32, round to nearest, subnormals kept).
 
@@ -27,11 +27,11 @@ pub const QUERIES: [([f32; 3], f32); 8] = [
     ([1.0e-3, -1.0e-3, 2.5], 0.6),
 ];
 
-/// Words one model contributes: per query 5K + 1.
+/// Words one model contributes: per query 5K + 3 + 1.
 // Sizes static buffers in modelgen and cortex-m4; the freestanding library takes its size from C.
 #[allow(dead_code)]
-pub fn words_per_model(k: usize) -> usize {
-    QUERIES.len() * (5 * k + 1)
+pub const fn words_per_model(k: usize) -> usize {
+    QUERIES.len() * (5 * k + 4)
 }
 
 /// Why a transcript could not be produced.
@@ -69,6 +69,9 @@ pub fn transcript(models: &[&[u8]], out: &mut [u32]) -> Result<usize, Transcript
                 push(v.to_bits())?;
             }
             for v in &dfdt[..k] {
+                push(v.to_bits())?;
+            }
+            for v in model.displacement(x, t).map_err(fail)? {
                 push(v.to_bits())?;
             }
             push(model.label(x, t))?;

@@ -64,8 +64,18 @@ pub fn seeds(target: &str, work: &Path) -> Result<Vec<Named>, Error> {
 /// vary every dimension the format has: depth, widths (including ones that are not multiples
 /// of any SIMD width), class count, weight type, metadata length (so padding before the weights
 /// ranges from 0 to 63 bytes), multi-byte UTF-8 names and a non-identity domain, and are kept
-/// small (≤ ~2 KiB) so the fuzzer runs many inputs per second.
+/// small (≤ ~2 KiB) so the fuzzer runs many inputs per second. Each shape also comes as a
+/// motion model (a version-2 file) with a motion network of its own depth and widths, so the
+/// version-2 fields and the warp's evaluation are reached too.
 pub fn model_files() -> Result<Vec<Named>, Error> {
+    let motion: [&[u32]; 6] = [
+        &[1],
+        &[3],
+        &[2, 5],
+        &[4, 4, 4],
+        &[7],
+        &[1, 1, 1, 1, 1, 1, 1, 1],
+    ];
     let shapes: [(&[u32], u32); 6] = [
         (&[1], 1),
         (&[4], 2),
@@ -99,6 +109,9 @@ pub fn model_files() -> Result<Vec<Named>, Error> {
             }
             let bytes = w.try_to_bytes().map_err(|e| format!("{e:?}"))?;
             out.push((format!("{i}-{weight_type:?}.dsm"), bytes));
+            w.motion = ModelWriter::random_motion(&[1], 1, motion[i], i as u64).motion;
+            let bytes = w.try_to_bytes().map_err(|e| format!("{e:?}"))?;
+            out.push((format!("{i}-{weight_type:?}-motion.dsm"), bytes));
         }
     }
     Ok(out)

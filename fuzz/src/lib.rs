@@ -119,6 +119,7 @@ fn query_everything(model: &Model) {
             .expect("eval_jacobian");
         let label = model.label(x, t);
         assert!(label as usize <= k || label == UNDEFINED_LABEL);
+        model.displacement(x, t).expect("displacement");
     }
     SCRATCH.with_borrow_mut(|scratch| {
         for n in [0, 1, 13] {
@@ -135,6 +136,10 @@ fn query_everything(model: &Model) {
             model
                 .label_batch(scratch, &xyz, &t, &mut labels)
                 .expect("label_batch");
+            let mut u = vec![[0.0; 3]; n];
+            model
+                .displacement_batch(scratch, &xyz, &t, &mut u)
+                .expect("displacement_batch");
             assert!(labels
                 .iter()
                 .all(|&l| l as usize <= k || l == UNDEFINED_LABEL));

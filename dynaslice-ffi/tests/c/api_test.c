@@ -8,6 +8,8 @@
  * kernels picked for the CPU: "exact" (native run, same CPU as the Rust side) demands bit
  * equality, "approx" (under valgrind, whose CPU lacks AVX-512) a relative 2e-4.
  * Broken variants of the model are written to SCRATCH_DIR to test every load error.
+ * MODEL.dsm is a model without motion or a motion model (REF_MOTION): the same calls answer
+ * both, and the displacement is zero without motion.
  */
 #define _POSIX_C_SOURCE 200809L /* mkfifo */
 
@@ -273,6 +275,13 @@ static void test_points(const DsModel *m) {
         uint32_t label = 12345;
         CHECK_RC(ds_label(m, x, t, &label), DS_OK);
         CHECK(label == REF_LABEL[i]);
+        float u[4] = {0.0f, 0.0f, 0.0f, 42.0f};
+        CHECK_RC(ds_displacement(m, x, t, u), DS_OK);
+        for (int d = 0; d < 3; d++) {
+            CHECK(same_bits(u[d], REF_DISP[i][d]));
+            if (!REF_MOTION) CHECK(u[d] == 0.0f);
+        }
+        CHECK(u[3] == 42.0f);
     }
 }
 
@@ -307,6 +316,12 @@ static void test_point_errors(const DsModel *m) {
     CHECK_RC(ds_label(NULL, x, 0.5f, &label), DS_E_NULL_POINTER);
     CHECK_RC(ds_label(m, NULL, 0.5f, &label), DS_E_NULL_POINTER);
     CHECK_RC(ds_label(m, x, 0.5f, NULL), DS_E_NULL_POINTER);
+    float u[3];
+    CHECK_RC(ds_displacement(NULL, x, 0.5f, u), DS_E_NULL_POINTER);
+    CHECK_RC(ds_displacement(m, NULL, 0.5f, u), DS_E_NULL_POINTER);
+    CHECK_RC(ds_displacement(m, x, 0.5f, NULL), DS_E_NULL_POINTER);
+    CHECK_RC(ds_displacement(m, xf, 0.5f, xf + 1), DS_E_INVALID_ARGUMENT);
+    CHECK(last_error_contains("ds_displacement") && last_error_contains("overlap"));
 
     /* NaN and infinite points (at a time in range) are answered, not errors: NaN distances,
      * undefined label. */
@@ -320,6 +335,8 @@ static void test_point_errors(const DsModel *m) {
         label = 0;
         CHECK_RC(ds_label(m, bad[i], 0.5f, &label), DS_OK);
         CHECK(label == DS_LABEL_UNDEFINED);
+        CHECK_RC(ds_displacement(m, bad[i], 0.5f, u), DS_OK);
+        for (int j = 0; j < 3; j++) CHECK(isnan(u[j]));
     }
 
     /* Finite points far outside the bounds are answered with finite values and a label. */
@@ -330,6 +347,8 @@ static void test_point_errors(const DsModel *m) {
         for (int j = 0; j < 3 * REF_K; j++) CHECK(isfinite(g[j]));
         CHECK_RC(ds_label(m, far_x[i], 0.5f, &label), DS_OK);
         CHECK(label <= REF_K);
+        CHECK_RC(ds_displacement(m, far_x[i], 0.5f, u), DS_OK);
+        for (int j = 0; j < 3; j++) CHECK(isfinite(u[j]));
     }
 }
 
@@ -340,7 +359,7 @@ static void test_time_range(const DsModel *m) {
     CHECK_RC(ds_time_range(m, &t0, &t1), DS_OK);
     const float span = t1 - t0;
     const float x[3] = {10.0f, -5.0f, 3.0f};
-    float f[REF_K], g[3 * REF_K], d[REF_K];
+    float f[REF_K], g[3 * REF_K], d[REF_K], u[3];
     uint32_t label;
 
     /* The edges, and just inside the rounding slack of 1e-4 of the range. */
@@ -355,6 +374,8 @@ static void test_time_range(const DsModel *m) {
         label = 12345;
         CHECK_RC(ds_label(m, x, t, &label), DS_OK);
         CHECK(label <= REF_K);
+        CHECK_RC(ds_displacement(m, x, t, u), DS_OK);
+        for (int j = 0; j < 3; j++) CHECK(isfinite(u[j]));
     }
 
     const float outside[] = {t0 - 2e-4f * span, t1 + 2e-4f * span, t1 + span, -1e30f, 1e30f,
@@ -372,8 +393,12 @@ static void test_time_range(const DsModel *m) {
         CHECK_RC(ds_eval_grad(m, x, t, f, g, REF_K), DS_E_TIME_OUT_OF_RANGE);
         CHECK_RC(ds_eval_jacobian(m, x, t, f, g, d, REF_K), DS_E_TIME_OUT_OF_RANGE);
         CHECK_RC(ds_label(m, x, t, &label), DS_E_TIME_OUT_OF_RANGE);
+        u[0] = u[1] = u[2] = 42.0f;
+        CHECK_RC(ds_displacement(m, x, t, u), DS_E_TIME_OUT_OF_RANGE);
+        CHECK(last_error_contains("ds_displacement: t = "));
         for (int k = 0; k < REF_K; k++) CHECK(f[k] == 42.0f && d[k] == 42.0f);
         for (int j = 0; j < 3 * REF_K; j++) CHECK(g[j] == 42.0f);
+        for (int j = 0; j < 3; j++) CHECK(u[j] == 42.0f);
         CHECK(label == 12345);
     }
     /* Pointer errors come before the time. */
@@ -384,12 +409,13 @@ static void test_time_range(const DsModel *m) {
      * written, and the message names the first such point. */
     enum { N = 6 };
     float xyz[3 * N], t[N] = {t0, t1, t0, 0.5f * (t0 + t1), t1, t0};
-    float bf[N * REF_K], bg[3 * N * REF_K];
+    float bf[N * REF_K], bg[3 * N * REF_K], bu[3 * N];
     uint32_t bl[N];
     for (int i = 0; i < 3 * N; i++) xyz[i] = x[i % 3];
     CHECK_RC(ds_eval_batch(m, N, xyz, t, bf), DS_OK);
     CHECK_RC(ds_eval_grad_batch(m, N, xyz, t, bf, bg), DS_OK);
     CHECK_RC(ds_label_batch(m, N, xyz, t, bl), DS_OK);
+    CHECK_RC(ds_displacement_batch(m, N, xyz, t, bu), DS_OK);
     for (int i = 0; i < N; i++) CHECK(bl[i] <= REF_K);
     const float bad_times[] = {NAN, t1 + span, -INFINITY};
     for (size_t b = 0; b < sizeof bad_times / sizeof bad_times[0]; b++) {
@@ -398,6 +424,10 @@ static void test_time_range(const DsModel *m) {
         for (int i = 0; i < N * REF_K; i++) bf[i] = 42.0f;
         for (int i = 0; i < 3 * N * REF_K; i++) bg[i] = 42.0f;
         for (int i = 0; i < N; i++) bl[i] = 42;
+        for (int i = 0; i < 3 * N; i++) bu[i] = 42.0f;
+        CHECK_RC(ds_displacement_batch(m, N, xyz, t, bu), DS_E_TIME_OUT_OF_RANGE);
+        CHECK(last_error_contains("ds_displacement_batch: t[2] = "));
+        for (int i = 0; i < 3 * N; i++) CHECK(bu[i] == 42.0f);
         CHECK_RC(ds_eval_batch(m, N, xyz, t, bf), DS_E_TIME_OUT_OF_RANGE);
         CHECK(last_error_contains("ds_eval_batch: t[2] = "));
         CHECK(last_error_contains("(and 1 more time)"));
@@ -411,6 +441,7 @@ static void test_time_range(const DsModel *m) {
 
 static void test_batch(const DsModel *m, int exact) {
     static float xyz[REF_N * 3], t[REF_N], f[REF_N * REF_K + 1], g[REF_N * REF_K * 3 + 1];
+    static float u[REF_N * 3 + 1];
     static uint32_t labels[REF_N + 1];
     for (int i = 0; i < REF_N; i++) {
         for (int d = 0; d < 3; d++) xyz[3 * i + d] = from_bits(REF_XYZT[i][d]);
@@ -442,6 +473,15 @@ static void test_batch(const DsModel *m, int exact) {
             CHECK(exact ? same_bits(v, REF_BATCH_GRAD[i][j]) : close_to(v, REF_BATCH_GRAD[i][j]));
         }
     CHECK(f[REF_N * REF_K] == 42.0f && g[REF_N * REF_K * 3] == 42.0f && labels[REF_N] == 42);
+    u[REF_N * 3] = 42.0f;
+    CHECK_RC(ds_displacement_batch(m, REF_N, xyz, t, u), DS_OK);
+    for (int i = 0; i < REF_N; i++)
+        for (int d = 0; d < 3; d++) {
+            float v = u[3 * i + d];
+            CHECK(exact ? same_bits(v, REF_BATCH_DISP[i][d]) : close_to(v, REF_BATCH_DISP[i][d]));
+            if (!REF_MOTION) CHECK(v == 0.0f);
+        }
+    CHECK(u[REF_N * 3] == 42.0f);
 
     /* One NaN or infinite point spoils only its own row (a bad time refuses the whole call:
      * test_time_range). */
@@ -471,6 +511,22 @@ static void test_batch(const DsModel *m, int exact) {
     CHECK_RC(ds_label_batch(NULL, REF_N, xyz, t, labels), DS_E_NULL_POINTER);
     CHECK_RC(ds_label_batch(m, REF_N, xyz, t, NULL), DS_E_NULL_POINTER);
     CHECK_RC(ds_label_batch(m, REF_N, xyz, t, (uint32_t *)xyz), DS_E_INVALID_ARGUMENT);
+    CHECK_RC(ds_displacement_batch(NULL, REF_N, xyz, t, u), DS_E_NULL_POINTER);
+    CHECK_RC(ds_displacement_batch(m, REF_N, NULL, t, u), DS_E_NULL_POINTER);
+    CHECK_RC(ds_displacement_batch(m, REF_N, xyz, NULL, u), DS_E_NULL_POINTER);
+    CHECK_RC(ds_displacement_batch(m, REF_N, xyz, t, NULL), DS_E_NULL_POINTER);
+    CHECK_RC(ds_displacement_batch(m, REF_N, xyz, t, xyz + 3), DS_E_INVALID_ARGUMENT);
+    CHECK_RC(ds_displacement_batch(m, REF_N, xyz, t, t), DS_E_INVALID_ARGUMENT);
+    CHECK(last_error_contains("ds_displacement_batch") && last_error_contains("overlap"));
+    CHECK_RC(ds_displacement_batch(m, SIZE_MAX / 4, xyz, t, u), DS_E_INVALID_ARGUMENT);
+    CHECK_RC(ds_displacement_batch(m, 0, xyz, t, u), DS_OK);
+    /* The NaN and infinite points above spoil only their own rows. */
+    CHECK_RC(ds_displacement_batch(m, REF_N, xyz, t, u), DS_OK);
+    for (int i = 0; i < REF_N; i++)
+        for (int d = 0; d < 3; d++) {
+            int spoiled = i == 7 || i == 9;
+            CHECK(spoiled ? isnan(u[3 * i + d]) : isfinite(u[3 * i + d]));
+        }
 }
 
 static void test_error_strings(void) {

@@ -2,8 +2,8 @@
 
 Usage: check_binding.py MODEL.dsm EXPECTED.json   (DYNASLICE_LIBRARY names the library)
 
-EXPECTED.json holds the class table and a few points with their distances, gradients (IEEE
-float32 bit patterns) and labels; every value must match bit for bit.
+EXPECTED.json holds the class table and a few points with their distances, gradients,
+displacements (IEEE float32 bit patterns) and labels; every value must match bit for bit.
 """
 
 import json
@@ -39,7 +39,7 @@ def check_time_rule(m, xyz):
         assert m.label(xyz, t) <= m.num_classes
     assert len(m.eval_batch([xyz, xyz], [t0, t1])) == 2
     for t in (t0 - 0.01 * span, t1 + 0.01 * span, 1e30, -math.inf, math.inf, math.nan):
-        for call in (m.eval, m.eval_grad, m.label):
+        for call in (m.eval, m.eval_grad, m.label, m.displacement):
             assert refused(call, xyz, t), (call.__name__, t)
         for call in (m.eval_batch, m.label_batch):
             assert refused(call, [xyz, xyz, xyz], [t0, t, t1]), (call.__name__, t)
@@ -67,6 +67,8 @@ def main(model_path, expected_path):
             f, g = m.eval_grad(xyz, t)
             assert f == want_f and [c for row in g for c in row] == want_g, (f, g)
             assert m.label(xyz, t) == case["label"]
+            want_u = tuple(f32(b) for b in case["displacement"])
+            assert m.displacement(xyz, t) == want_u, (m.displacement(xyz, t), want_u)
             assert from_bytes.eval(xyz, t) == want_f
             points.append(xyz)
             times.append(t)

@@ -243,6 +243,12 @@ class Model:
         """``(f, ∇ₓf, ∂f/∂t)`` in one pass: (N, K), (N, K, 3), (N, K) float32."""
         return self._m.jacobian(_points(points), _times(t))
 
+    def displacement(self, points: ArrayLike, t: Union[float, ArrayLike]) -> np.ndarray:
+        """A motion model's displacement u: (N, 3) float32, world units, the offset that
+        carries each point at its time to its canonical (reference-shape) position, where the
+        model's one shape is read (f(x, t) = g(x + u, t)). Zero for a model without motion."""
+        return self._m.displacement(_points(points), _times(t))
+
     def labels(
         self, points: ArrayLike, t: Union[float, ArrayLike], *, index: bool = False
     ) -> np.ndarray:
@@ -377,9 +383,16 @@ def _time_text(times: Union[None, str, float, Sequence[float]]) -> Optional[str]
     return ",".join(repr(float(t)) for t in np.atleast_1d(times))
 
 
-def random_model(widths: Sequence[int], num_classes: int, seed: int = 0) -> Model:
-    """A model with random (untrained) weights, for tests and benchmarks."""
-    return Model(_dynaslice.random_model(list(widths), num_classes, seed))
+def random_model(
+    widths: Sequence[int],
+    num_classes: int,
+    seed: int = 0,
+    motion_widths: Optional[Sequence[int]] = None,
+) -> Model:
+    """A model with random (untrained) weights, for tests and benchmarks; with
+    ``motion_widths``, a motion model whose motion network has those sine layer widths."""
+    motion = None if motion_widths is None else list(motion_widths)
+    return Model(_dynaslice.random_model(list(widths), num_classes, seed, motion))
 
 
 def _progress_lines() -> Callable[[dict], None]:

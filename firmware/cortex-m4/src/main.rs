@@ -58,10 +58,12 @@ mod rig {
 
     static MODEL_F32: &Aligned<[u8]> = &Aligned(*include_bytes!("../../generated/model_f32.dsm"));
     static MODEL_F16: &Aligned<[u8]> = &Aligned(*include_bytes!("../../generated/model_f16.dsm"));
+    static MODEL_MOTION: &Aligned<[u8]> =
+        &Aligned(*include_bytes!("../../generated/model_motion.dsm"));
 
     /// Number of classes of the embedded models (checked at run time).
     const K: usize = 3;
-    const WORDS: usize = 2 * (transcript::QUERIES.len() * (5 * K + 1));
+    const WORDS: usize = 3 * transcript::words_per_model(K);
 
     /// The batch functions' working memory (≈ 330 KiB): far too big for a stack, so it lives in
     /// .bss, as the core's documentation recommends for firmware.
@@ -120,7 +122,7 @@ mod rig {
         // `&mut` is taken exactly once, here.
         let (scratch, words) =
             unsafe { (&mut *addr_of_mut!(SCRATCH), &mut *addr_of_mut!(WORDS_OUT)) };
-        let models: [&[u8]; 2] = [&MODEL_F32.0, &MODEL_F16.0];
+        let models: [&[u8]; 3] = [&MODEL_F32.0, &MODEL_F16.0, &MODEL_MOTION.0];
 
         // 1. The transcript, for the host to compare bit for bit.
         let mut result = Ok(0);
@@ -185,6 +187,15 @@ mod rig {
         let mut label = 0;
         let s = stack_used(&mut || label = model.label(x, t));
         hprintln!("stack label {}", s);
+        let Ok(moving) = Model::from_bytes(models[2]) else {
+            hprintln!("FAIL: the embedded motion model");
+            return false;
+        };
+        let s = stack_used(&mut || {
+            r = moving.eval_jacobian(x, t, &mut f[..K], &mut grad[..K], &mut dfdt[..K])
+        });
+        check("eval_jacobian (motion model)", r);
+        hprintln!("stack eval_jacobian (motion model) {}", s);
         let n = transcript::QUERIES.len();
         let mut xyz = [[0.0f32; 3]; transcript::QUERIES.len()];
         let mut ts = [0.0f32; transcript::QUERIES.len()];

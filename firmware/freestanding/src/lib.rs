@@ -1,5 +1,5 @@
 //! The DynaSlice core as a freestanding static library: `#![no_std]`, `panic = "abort"`, no
-//! allocator and no libc, with the two models written by `modelgen` embedded in the image.
+//! allocator and no libc, with the three models written by `modelgen` embedded in the image.
 //!
 //! `main.c` (built with `gcc -ffreestanding -nostdlib -static`, its own `_start`) calls
 //! [`dynaslice_fw_transcript`] and compares the words with the host reference. This proves that
@@ -17,6 +17,7 @@ struct Aligned<T: ?Sized>(T);
 
 static MODEL_F32: &Aligned<[u8]> = &Aligned(*include_bytes!("../../generated/model_f32.dsm"));
 static MODEL_F16: &Aligned<[u8]> = &Aligned(*include_bytes!("../../generated/model_f16.dsm"));
+static MODEL_MOTION: &Aligned<[u8]> = &Aligned(*include_bytes!("../../generated/model_motion.dsm"));
 
 /// Evaluates the embedded models at the common query points and writes the transcript words to
 /// `out[..cap]`. Returns the number of words, or a negative code: −(1 + i) when model i was
@@ -31,7 +32,7 @@ pub unsafe extern "C" fn dynaslice_fw_transcript(out: *mut u32, cap: usize) -> i
     }
     // SAFETY: the caller guarantees `out` is valid for `cap` writes.
     let out = unsafe { core::slice::from_raw_parts_mut(out, cap) };
-    match transcript::transcript(&[&MODEL_F32.0, &MODEL_F16.0], out) {
+    match transcript::transcript(&[&MODEL_F32.0, &MODEL_F16.0, &MODEL_MOTION.0], out) {
         Ok(n) => n as i32,
         Err(transcript::TranscriptError::Model(i, _)) => -1 - i as i32,
         Err(transcript::TranscriptError::OutputTooShort) => -100,

@@ -1,6 +1,8 @@
 //! `dynaslice-modelgen OUT_DIR` writes, into OUT_DIR:
 //! - `model_f32.dsm`, `model_f16.dsm`: one small multi-class SIREN with a non-identity world
 //!   domain, stored with f32 and with f16 weights, for the firmware builds to `include_bytes!`;
+//! - `model_motion.dsm`: the same shape network moved by a motion network (a version-2 file,
+//!   f16 weights), so the firmware evaluates a motion model too;
 //! - `expected.txt` (one `0x%08x` word a line) and `expected.h` (a C array): the transcript of
 //!   `firmware/common/transcript.rs` computed here by the std build of the core, the reference
 //!   the firmware builds must reproduce bit for bit;
@@ -28,6 +30,8 @@ const CLASSES: [&str; 3] = [
     "right ventricle",
 ];
 const SEED: u64 = 2026;
+/// Sine layer widths of the motion model's motion network.
+const MOTION_WIDTHS: [u32; 2] = [32, 32];
 
 fn writer(weight_type: WeightType) -> ModelWriter {
     let mut w = ModelWriter::random_siren(&WIDTHS, CLASSES.len() as u32, SEED);
@@ -66,9 +70,12 @@ fn main() -> ExitCode {
 fn run(out_dir: &Path) -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(out_dir)?;
     // Aligned copies: `Model::from_bytes` reads the weights in place.
+    let mut moving = writer(WeightType::F16);
+    moving.motion = ModelWriter::random_motion(&[1], 1, &MOTION_WIDTHS, SEED).motion;
     let files = [
         ("model_f32.dsm", writer(WeightType::F32).try_to_bytes()?),
         ("model_f16.dsm", writer(WeightType::F16).try_to_bytes()?),
+        ("model_motion.dsm", moving.try_to_bytes()?),
     ]
     .map(|(name, bytes)| (name, ModelBytes::copy_from(&bytes)));
     let views: Vec<&[u8]> = files.iter().map(|(_, b)| b.as_bytes()).collect();
