@@ -127,3 +127,26 @@ fn info_reads_the_input_as_the_model_was_trained() {
     let out = run(d, &["info", "one.dsm", "seg.nii.gz", "--labels", "1,5"]);
     assert!(!out.status.success());
 }
+
+/// A motion model (a version-2 file): `info` names its motion network's widths and ω_t^max
+/// and counts both networks' weights, and `query` answers it like any model.
+#[test]
+fn info_shows_a_motion_network() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let w = dynaslice_core::format::ModelWriter::random_motion(&[16, 16], 2, &[12, 8], 3);
+    std::fs::write(d.join("moving.dsm"), w.to_bytes()).unwrap();
+    let out = run(d, &["info", "moving.dsm"]);
+    let stdout = succeeded(&out);
+    assert!(
+        stdout.contains(
+            "motion       sine layers [12, 8], ω_t^max 12.566371 (normalised time): \
+             f = g(x + u(x, t), t)"
+        ),
+        "{stdout}"
+    );
+    assert!(stdout.contains("motion weights, f32)"), "{stdout}");
+    assert!(stdout.contains("time range   0 .. 1"), "{stdout}");
+    let out = run(d, &["query", "moving.dsm", "0.1", "0.2", "0.3", "0.5"]);
+    succeeded(&out);
+}
