@@ -256,7 +256,7 @@ pub(crate) fn fit_checked(
         !spec.no_temporal_control,
     );
     let plane_band = plane_band(seq, &domain, spec.temporal_factor(), !spec.no_plane_band);
-    let motion = motion_options(seq, &domain, spec.no_motion, !spec.no_temporal_control);
+    let motion = motion_options(seq, &domain, spec.motion, !spec.no_temporal_control);
     let options = TrainOptions {
         plane_band,
         motion,
@@ -285,14 +285,14 @@ pub(crate) fn fit_checked(
         },
         options.omega_0,
     ));
-    observer.note(&match (&options.motion, spec.no_motion) {
+    observer.note(&match (&options.motion, spec.motion) {
         (Some(m), _) => format!(
             "a moving input: each structure's shape is carried by a motion network ({:?}, ω₀ {}, \
              ω_t^max {})",
             m.widths, m.omega_0, m.omega_t_max
         ),
-        (None, true) => "motion network off (--no-motion)".into(),
-        (None, false) => "one annotated time: no motion network".into(),
+        (None, true) => "one annotated time: no motion network".into(),
+        (None, false) => "no motion network (--motion carries each shape by one)".into(),
     });
     let mut sampler =
         DataSampler::with_progress(seq, domain, counts, &mut |d, t| observer.indexing(d, t));

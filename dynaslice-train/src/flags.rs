@@ -242,11 +242,11 @@ pub const NO_PLANE_BAND: Flag = switch(
     "no_plane_band",
     "Ablation: no band limit across parallel planes (ω_x unbounded along their normal)",
 );
-/// `no_motion`.
-pub const NO_MOTION: Flag = switch(
-    "no_motion",
-    "Ablation: no motion network for a moving input (each point's signed distance a smooth \
-     function of time, as for a static one)",
+/// `motion`.
+pub const MOTION: Flag = switch(
+    "motion",
+    "For a moving input, carry each structure's shape by a motion network: \
+     f = g(x + u(x, t), t) (docs/training.md, \"Moving inputs\")",
 );
 /// `no_orientation`.
 pub const NO_ORIENTATION: Flag =
@@ -449,7 +449,7 @@ pub const FLAGS: [&Flag; 27] = [
     &FORCE,
     &NO_TEMPORAL_CONTROL,
     &NO_PLANE_BAND,
-    &NO_MOTION,
+    &MOTION,
     &NO_ORIENTATION,
     &WIDTHS,
     &OMEGA0,

@@ -39,8 +39,8 @@ pub struct TrainSpec {
     pub no_temporal_control: bool,
     /// Ablation: no band limit across parallel planes ([`crate::spatial_bound`]).
     pub no_plane_band: bool,
-    /// Ablation: no motion network for a moving input ([`crate::warp`]).
-    pub no_motion: bool,
+    /// For a moving input, a motion model ([`crate::warp`]).
+    pub motion: bool,
     /// Ablation: no orientation loss (λ_n = 0).
     pub no_orientation: bool,
     /// Widths of the sine layers (default 4 × 256).
@@ -248,7 +248,7 @@ impl TrainSpec {
             "force" => self.force = switch(&value).ok_or_else(wrong)?,
             "no_temporal_control" => self.no_temporal_control = switch(&value).ok_or_else(wrong)?,
             "no_plane_band" => self.no_plane_band = switch(&value).ok_or_else(wrong)?,
-            "no_motion" => self.no_motion = switch(&value).ok_or_else(wrong)?,
+            "motion" => self.motion = switch(&value).ok_or_else(wrong)?,
             "no_orientation" => self.no_orientation = switch(&value).ok_or_else(wrong)?,
             "widths" => match &value {
                 Value::Wholes(w) => {
