@@ -721,24 +721,7 @@ mod tests {
             // Every row count per block (64, 16·4, 12·5) and its remainder (77 points).
             let modes = [Tangents::None, Tangents::Space, Tangents::SpaceTime];
             for (kernels, tangents) in all_available().flat_map(|k| modes.map(|m| (k, m))) {
-                let mut scratch = Scratch::boxed();
-                let (mut f, mut g, mut d) =
-                    (vec![0.0; n * k], vec![[0.0; 3]; n * k], vec![0.0; n * k]);
-                model.blocks(
-                    kernels,
-                    &mut scratch,
-                    &xyz,
-                    &t,
-                    tangents,
-                    |first, points, rows| {
-                        let out = Outputs {
-                            f: &mut f,
-                            grad: (tangents != Tangents::None).then_some(&mut g[..]),
-                            dfdt: (tangents == Tangents::SpaceTime).then_some(&mut d[..]),
-                        };
-                        model.write_outputs(rows, first, points, tangents, out);
-                    },
-                );
+                let (f, g, d) = block_outputs(&model, kernels, &xyz, &t, tangents);
                 let got_g: Vec<f32> = g.iter().flatten().copied().collect();
                 let checks = [
                     ("f", &f, &want.0),
@@ -977,6 +960,36 @@ mod tests {
     }
 
     /// FNV-1a over the bits of every value, to pin answers exactly.
+    /// f, ∇ₓf and ∂f/∂t of `model` at every point through `kernels`' block path carrying
+    /// `tangents` (the derivatives it does not carry stay zero).
+    fn block_outputs(
+        model: &Model,
+        kernels: Kernels,
+        xyz: &[[f32; 3]],
+        t: &[f32],
+        tangents: Tangents,
+    ) -> (Vec<f32>, Vec<[f32; 3]>, Vec<f32>) {
+        let n = xyz.len() * model.num_classes();
+        let mut scratch = Scratch::boxed();
+        let (mut f, mut g, mut d) = (vec![0.0; n], vec![[0.0; 3]; n], vec![0.0; n]);
+        model.blocks(
+            kernels,
+            &mut scratch,
+            xyz,
+            t,
+            tangents,
+            |first, points, rows| {
+                let out = Outputs {
+                    f: &mut f,
+                    grad: (tangents != Tangents::None).then_some(&mut g[..]),
+                    dfdt: (tangents == Tangents::SpaceTime).then_some(&mut d[..]),
+                };
+                model.write_outputs(rows, first, points, tangents, out);
+            },
+        );
+        (f, g, d)
+    }
+
     fn fnv(values: impl IntoIterator<Item = u32>) -> u64 {
         values.into_iter().fold(0xcbf2_9ce4_8422_2325, |h, v| {
             v.to_le_bytes()
@@ -1032,25 +1045,8 @@ mod tests {
             }
             got.push(("point", fnv(bits)));
             for kernels in all_available() {
-                let mut scratch = Scratch::boxed();
-                let (mut f, mut g, mut d) =
-                    (vec![0.0; n * k], vec![[0.0; 3]; n * k], vec![0.0; n * k]);
                 for tangents in [Tangents::None, Tangents::Space, Tangents::SpaceTime] {
-                    model.blocks(
-                        kernels,
-                        &mut scratch,
-                        &xyz,
-                        &t,
-                        tangents,
-                        |first, points, rows| {
-                            let out = Outputs {
-                                f: &mut f,
-                                grad: (tangents != Tangents::None).then_some(&mut g[..]),
-                                dfdt: (tangents == Tangents::SpaceTime).then_some(&mut d[..]),
-                            };
-                            model.write_outputs(rows, first, points, tangents, out);
-                        },
-                    );
+                    let (f, g, d) = block_outputs(&model, kernels, &xyz, &t, tangents);
                     let bits = f.iter().chain(g.iter().flatten()).chain(&d);
                     got.push((kernels.name, fnv(bits.map(|v| v.to_bits()))));
                 }

@@ -108,6 +108,10 @@ struct Worker {
     terms: LossTerms,
 }
 
+/// One of u's regulariser terms: its loss and output adjoint from u's stacked outputs, each
+/// point weighing the given weight (`warp::regulariser`, `warp::velocity`).
+type MotionTerm = fn(&[f32], f32, &mut [f32]) -> LossTerms;
+
 /// A motion model's extra buffers per worker: u's passes under the contour and plane sets, and
 /// its regulariser's pass (three tangents, for J_u) on the space-time samples.
 struct MotionWorkspaces {
@@ -252,18 +256,27 @@ impl Objective {
                 w.terms.add(&t);
                 w.space_time.backward(net, x, &w.g_out, shape_grad);
                 if let (Some(ws), Some(motion)) = (&mut w.motion, net.motion.as_deref()) {
-                    ws.strain.forward(motion, x, Tangents::Axes);
-                    let out = ws.strain.outputs(x.len());
-                    let t = warp::regulariser(out, space_weight, &mut ws.g_strain);
-                    w.terms.add(&t);
-                    ws.strain
-                        .backward(motion, x, Tangents::Axes, &ws.g_strain, motion_grad);
-                    ws.velocity.forward(motion, x, Tangents::Time);
-                    let out = ws.velocity.outputs(x.len());
-                    let t = warp::velocity(out, space_weight, &mut ws.g_velocity);
-                    w.terms.add(&t);
-                    ws.velocity
-                        .backward(motion, x, Tangents::Time, &ws.g_velocity, motion_grad);
+                    // u's regulariser: its Jacobian (strain, folds), then its velocity.
+                    let passes: [(_, _, MotionTerm, _); 2] = [
+                        (
+                            &mut ws.strain,
+                            Tangents::Axes,
+                            warp::regulariser,
+                            &mut ws.g_strain,
+                        ),
+                        (
+                            &mut ws.velocity,
+                            Tangents::Time,
+                            warp::velocity,
+                            &mut ws.g_velocity,
+                        ),
+                    ];
+                    for (pass, tangents, term, g) in passes {
+                        pass.forward(motion, x, tangents);
+                        let t = term(pass.outputs(x.len()), space_weight, g);
+                        w.terms.add(&t);
+                        pass.backward(motion, x, tangents, g, motion_grad);
+                    }
                 }
             }
         });
