@@ -125,11 +125,19 @@ impl Network {
     /// Every trained parameter: this network's, then its motion network's (the vector Adam and
     /// the checkpoint hold).
     pub fn all_params(&self) -> Vec<f32> {
-        let mut all = self.params.clone();
+        let mut all = Vec::with_capacity(self.all_params_len());
+        self.all_params_into(&mut all);
+        all
+    }
+
+    /// [`Network::all_params`] into `all`, replacing its contents (no allocation once it has
+    /// the capacity: the trainer refills one vector every step).
+    pub fn all_params_into(&self, all: &mut Vec<f32>) {
+        all.clear();
+        all.extend_from_slice(&self.params);
         if let Some(m) = &self.motion {
             all.extend_from_slice(&m.params);
         }
-        all
     }
 
     /// Number of trained parameters ([`Network::all_params`]'s length).

@@ -296,12 +296,7 @@ pub fn train(
         net.set_all_params(&params);
         net.project_band_limits();
         // The projection moved some parameters: Adam's next step starts from where it put them.
-        params.clear();
-        params.extend(
-            net.params
-                .iter()
-                .chain(net.motion.iter().flat_map(|m| &m.params)),
-        );
+        net.all_params_into(&mut params);
         step += 1;
         let seconds = began.elapsed().as_secs_f64();
         recent.push(seconds, first_of_process);

@@ -12,9 +12,8 @@
 //!
 //! The space-time terms of Eq. 8 regularise the shape g in its own (canonical) frame, on the
 //! space-time samples taken as canonical points: the eikonal term asks ‖∇_y g‖ = 1, so g is a
-//! signed distance and the motion, not a stretched field, carries the surface (Nerfies,
-//! Park et al. 2021, regularise their template the same way). u gets its own regulariser on the
-//! same samples ([`regulariser`]).
+//! signed distance and the motion, not a stretched field, carries the surface. u gets its own
+//! regulariser on the same samples ([`regulariser`], [`velocity`]).
 
 use crate::loss::LossTerms;
 use crate::network::Network;
