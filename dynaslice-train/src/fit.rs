@@ -291,6 +291,20 @@ pub(crate) fn fit_checked(
         ),
         None => "planes not all parallel: no class held to its contours' box".into(),
     });
+    let pairs = sampler.neighbour_pairs();
+    observer.note(&if pairs.iter().any(|&n| n > 0) {
+        format!(
+            "between neighbouring planes that both outline a class ({} pairs per class), their \
+             in-plane distances blended are a target (Eq. 7's weight)",
+            pairs
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    } else {
+        "no two neighbouring parallel planes outline one class: no targets between planes".into()
+    });
     if let Some(w) = &spec.class_weights {
         sampler = sampler.with_class_weights(w).map_err(|message| SpecError {
             option: "class_weights",

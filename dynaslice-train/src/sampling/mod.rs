@@ -28,6 +28,7 @@
 //! same on every platform and thread count. Use one stream per step (or per worker) for
 //! independent batches. Sampling allocates nothing once the batches have reached their size.
 
+mod between;
 mod contour;
 mod index;
 mod plane;
