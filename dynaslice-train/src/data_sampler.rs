@@ -406,8 +406,8 @@ impl DataSampler {
 
 impl DataSampler {
     /// Appends the samples between neighbouring planes drawn this step to the plane set: the
-    /// blended in-plane distance as an Eq. 7 target (no deeper than the class's extent allows),
-    /// a per-class mean with the class's weight.
+    /// blended in-plane distance as a [`PlaneKind::Between`] target (no deeper than the class's
+    /// extent allows), a per-class mean with the class's weight.
     fn between_samples(&mut self, b: &mut Batch) {
         if self.between.is_empty() {
             return;
@@ -425,7 +425,7 @@ impl DataSampler {
             b.plane.push(PlaneSample {
                 class,
                 target,
-                kind: PlaneKind::Sdf,
+                kind: PlaneKind::Between,
                 weight: 0.0,
             });
         }
@@ -589,7 +589,7 @@ mod tests {
         p.sample(5, 2, &mut b);
         // Plane samples, then the between samples, then the caps (no nesting here).
         let between = &b.plane[32..48];
-        assert!(between.iter().all(|s| s.kind == PlaneKind::Sdf));
+        assert!(between.iter().all(|s| s.kind == PlaneKind::Between));
         let total: f32 = between.iter().map(|s| s.weight).sum();
         assert!((total - 1.0).abs() < 1e-5, "a mean: {total}");
         assert_eq!(b.plane[48].kind, PlaneKind::Outside, "caps follow");

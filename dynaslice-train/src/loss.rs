@@ -45,6 +45,9 @@ pub struct LossTerms {
     pub spurious: f64,
     /// Σ w ReLU(b − f) where a class is known outside by at least b.
     pub outside: f64,
+    /// Σ w ReLU(sign(b)·(b/2 − f)) between neighbouring planes, b their blended in-plane
+    /// distance.
+    pub between: f64,
 }
 
 impl LossTerms {
@@ -55,6 +58,7 @@ impl LossTerms {
             + w.plane as f64 * self.plane
             + w.regulariser as f64 * (self.eikonal + self.spurious)
             + self.outside
+            + self.between
     }
 
     /// Adds another partial sum (chunks are summed in a fixed order for determinism).
@@ -65,6 +69,7 @@ impl LossTerms {
         self.eikonal += o.eikonal;
         self.spurious += o.spurious;
         self.outside += o.outside;
+        self.between += o.between;
     }
 }
 
@@ -89,7 +94,15 @@ pub enum PlaneKind {
     /// The class is known outside by at least `target` (beyond its extent, or inside a class
     /// nested in it; the point need not lie on a plane): ReLU(target − f).
     Outside,
+    /// Between two neighbouring planes, `target` is their in-plane distances blended by the
+    /// point's place between them (`sampling::SamplingIndex::sample_between`): f is asked to
+    /// be on the target's side, at least half as far, ReLU(sign(target)·(target/2 − f)).
+    Between,
 }
+
+/// The share of a [`PlaneKind::Between`] target f must reach: the sign, with a margin that
+/// grows with the depth the neighbouring planes agree on, not their distances themselves.
+pub const BETWEEN_SHARE: f32 = 0.5;
 
 /// A plane sample of one class.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -164,6 +177,14 @@ pub fn plane(
                 if r < 0.0 {
                     terms.outside -= (s.weight * r) as f64;
                     g[i * k + c] = -s.weight;
+                }
+            }
+            PlaneKind::Between => {
+                let side = sign(s.target);
+                let r = side * (BETWEEN_SHARE * s.target - out[i * k + c]);
+                if r > 0.0 {
+                    terms.between += (s.weight * r) as f64;
+                    g[i * k + c] = -side * s.weight;
                 }
             }
         }

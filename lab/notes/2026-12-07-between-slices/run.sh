@@ -1,0 +1,43 @@
+#!/bin/sh
+# Side by side on the issue-48 cases (lab note 2026-12-07-between-slices.md): train one binary
+# on the cine ring (20 mm kept slices) and the lesion (5 and 10 mm), write the labels on the
+# truth's grid and score the held-out slices with the cases' own scorers; then measure the field
+# between the slices (between.py). ITK's filter on the same kept slices: the cases' `itk`.
+#
+#   sh run.sh DYNASLICE OUT TAG SEED [STEPS] [CASES]
+#       OUT: the cases' folder (made on first use); TAG names the runs (e.g. base, new);
+#       CASES: any of ring lesion5 lesion10 (default all three)
+set -eu
+bin=$1; out=$2; tag=$3; seed=$4; steps=${5:-1000}; cases=${6:-ring lesion5 lesion10}
+here=$(cd "$(dirname "$0")" && pwd)
+lab=$here/../../cases
+mkdir -p "$out"
+if [ ! -f "$out/ring/itk.nii.gz" ]; then
+  python3 "$lab/cine_ring.py" make "$out/ring" > /dev/null && python3 "$lab/cine_ring.py" itk "$out/ring"
+fi
+if [ ! -f "$out/les/itk10.nii.gz" ]; then
+  python3 "$lab/lesion.py" make "$out/les" > /dev/null
+  python3 "$lab/lesion.py" itk "$out/les" 5 && python3 "$lab/lesion.py" itk "$out/les" 10
+fi
+for c in $cases; do
+  case $c in
+    ring) d=$out/ring; input=$d/kept.nii.gz; truth=$d/truth.nii.gz ;;
+    lesion5) d=$out/les; input=$d/kept5.nii.gz; truth=$d/truth.nii.gz ;;
+    lesion10) d=$out/les; input=$d/kept10.nii.gz; truth=$d/truth.nii.gz ;;
+  esac
+  m=$d/$tag-$c-s$seed
+  start=$(date +%s)
+  nice -n 10 "$bin" train "$input" -o "$m.dsm" --steps "$steps" --seed "$seed" --threads 2 \
+    --force > "$m.train.log" 2>&1
+  echo "$c $tag seed $seed: trained in $(( $(date +%s) - start )) s"
+  "$bin" labels "$m.dsm" --like "$truth" -o "$m.nii.gz" --force > /dev/null 2>&1
+  case $c in
+    ring) python3 "$lab/cine_ring.py" score "$d" "$m.nii.gz" > "$m.score.json"
+          python3 "$here/between.py" ring "$d" "$m.dsm" > "$m.between.jsonl" ;;
+    lesion5) python3 "$lab/lesion.py" score "$d" 5 "$m.nii.gz" > "$m.score.json"
+             python3 "$here/between.py" lesion "$d" 5 "$m.dsm" > "$m.between.jsonl" ;;
+    lesion10) python3 "$lab/lesion.py" score "$d" 10 "$m.nii.gz" > "$m.score.json"
+              python3 "$here/between.py" lesion "$d" 10 "$m.dsm" > "$m.between.jsonl" ;;
+  esac
+  cat "$m.score.json"
+done
