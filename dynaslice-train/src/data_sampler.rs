@@ -225,6 +225,11 @@ impl DataSampler {
         let fingerprint = extents.as_ref().map_or(fingerprint, |e| {
             (fingerprint ^ e.margin().to_bits()).wrapping_mul(0x100_0000_01b3)
         });
+        // So do the samples between neighbouring planes.
+        let fingerprint = index
+            .neighbour_pairs()
+            .iter()
+            .fold(fingerprint, |h, &n| (h ^ n as u64).wrapping_mul(0x100_0000_01b3));
         let plane_split = counts.plane_split(&lengths);
         let between_split = plane_split
             .iter()

@@ -371,6 +371,10 @@ pub(crate) fn fit_checked(
         temporal_factor: spec.temporal_factor(),
         class_weights: spec.class_weights.as_deref(),
         extent_margin,
+        between_pairs: pairs
+            .iter()
+            .any(|&n| n > 0)
+            .then(|| pairs.iter().map(|&n| n as u32).collect()),
         // Classes drawn nested and trained disjoint: outputs recompose the outer from it.
         input: RunRecord {
             nesting: (!seq.nesting().is_empty()).then(|| {

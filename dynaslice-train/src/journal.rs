@@ -10,13 +10,18 @@ use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 
 /// The loss log's header; a row is the step then these values.
-pub const CSV_HEADER: &str = "step,total,surface,orientation,plane,eikonal,spurious,outside";
+pub const CSV_HEADER: &str =
+    "step,total,surface,orientation,plane,eikonal,spurious,outside,between";
+
+/// The header of loss logs written before the between term existed (rows of seven values).
+const CSV_HEADER_BEFORE_BETWEEN: &str =
+    "step,total,surface,orientation,plane,eikonal,spurious,outside";
 
 /// The header of loss logs written before the outside term existed (rows of six values).
 const CSV_HEADER_BEFORE_OUTSIDE: &str = "step,total,surface,orientation,plane,eikonal,spurious";
 
 /// The names of a row's values after the step, in column order, for plots.
-pub const TERM_NAMES: [&str; 7] = [
+pub const TERM_NAMES: [&str; 8] = [
     "total",
     "surface |f|",
     "orientation",
@@ -24,12 +29,13 @@ pub const TERM_NAMES: [&str; 7] = [
     "eikonal",
     "spurious exp(-a|f|)",
     "outside ReLU(b-f)",
+    "between ReLU(sign(b)(b/2-f))",
 ];
 
 /// One step's losses: the step (1-based), then total, surface, orientation, plane, eikonal,
-/// spurious, outside.
+/// spurious, outside, between.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LossRow(pub u64, pub [f64; 7]);
+pub struct LossRow(pub u64, pub [f64; 8]);
 
 impl LossRow {
     /// The row of step `step` with `terms` and weighted `total`.
@@ -44,6 +50,7 @@ impl LossRow {
                 t.eikonal,
                 t.spurious,
                 t.outside,
+                t.between,
             ],
         )
     }
@@ -53,20 +60,21 @@ impl LossRow {
     pub fn line(&self) -> String {
         let v = self.1;
         format!(
-            "{},{},{},{},{},{},{},{}\n",
-            self.0, v[0], v[1], v[2], v[3], v[4], v[5], v[6]
+            "{},{},{},{},{},{},{},{},{}\n",
+            self.0, v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]
         )
     }
 
     /// The row of a CSV line, or `None` if it is not one (a torn last line). A row of a
-    /// journal written before the outside term existed (six values) reads with it 0.
+    /// journal written before the outside or the between term existed (six or seven values)
+    /// reads with them 0.
     pub fn parse(line: &str) -> Option<LossRow> {
         let mut it = line.trim().split(',');
         let step = it.next()?.parse().ok()?;
         let values: Vec<f64> = it.map(|x| x.parse().ok()).collect::<Option<_>>()?;
-        let mut v = [0.0; 7];
+        let mut v = [0.0; 8];
         match values.len() {
-            6 | 7 => v[..values.len()].copy_from_slice(&values),
+            6..=8 => v[..values.len()].copy_from_slice(&values),
             _ => return None,
         }
         Some(LossRow(step, v))
@@ -86,7 +94,7 @@ pub fn read(path: &Path, max_steps: u64) -> Result<Vec<LossRow>> {
     let Ok(file) = File::open(path) else {
         return Ok(Vec::new());
     };
-    // The longest line is 20 digits and seven f64s of at most 24 characters, plus commas.
+    // The longest line is 20 digits and eight f64s of at most 24 characters, plus commas.
     let max = max_steps.saturating_add(1).saturating_mul(200);
     let mut rows = Vec::new();
     let reader = BufReader::new(file.take(max));
@@ -102,8 +110,8 @@ pub fn read(path: &Path, max_steps: u64) -> Result<Vec<LossRow>> {
 
 /// Whether `path` may be taken as a journal: nothing is there, or a regular file (not a link)
 /// whose first line is the loss log's header ([`CSV_HEADER`], or the header of a journal
-/// written before the outside term existed), as every journal's is from its first write; a
-/// user's file there is not.
+/// written before the between or the outside term existed), as every journal's is from its
+/// first write; a user's file there is not.
 pub fn is_journal(path: &Path) -> bool {
     match std::fs::symlink_metadata(path) {
         Err(e) => e.kind() == std::io::ErrorKind::NotFound,
@@ -113,7 +121,12 @@ pub fn is_journal(path: &Path) -> bool {
             BufReader::new(f.take(CSV_HEADER.len() as u64 + 1))
                 .read_line(&mut first)
                 .is_ok()
-                && [CSV_HEADER, CSV_HEADER_BEFORE_OUTSIDE].contains(&first.trim_end_matches('\n'))
+                && [
+                    CSV_HEADER,
+                    CSV_HEADER_BEFORE_BETWEEN,
+                    CSV_HEADER_BEFORE_OUTSIDE,
+                ]
+                .contains(&first.trim_end_matches('\n'))
         }),
     }
 }
@@ -186,10 +199,12 @@ mod tests {
 
     #[test]
     fn rows_round_trip_and_torn_lines_end_the_journal() {
-        let r = LossRow(3, [0.1, 1e-30, 0.0, 2.5, 1.0 / 3.0, 7.0, 0.25]);
+        let r = LossRow(3, [0.1, 1e-30, 0.0, 2.5, 1.0 / 3.0, 7.0, 0.25, 0.125]);
         assert_eq!(LossRow::parse(&r.line()), Some(r));
         let older = LossRow::parse("3,0.1,1e-30,0,2.5,0.5,7").unwrap();
         assert_eq!(older.1[6], 0.0, "a six-value row has no outside term");
+        let before = LossRow::parse("3,0.1,1e-30,0,2.5,0.5,7,0.25").unwrap();
+        assert_eq!((before.1[6], before.1[7]), (0.25, 0.0), "nor a seven-value row a between");
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j.csv");
         let text = format!(
@@ -203,14 +218,14 @@ mod tests {
         assert!(read(&dir.path().join("none"), 100).unwrap().is_empty());
     }
 
-    /// A journal of this version or of one before the outside term is a journal; a user's
-    /// file at its path is not.
+    /// A journal of this version or of one before the between or the outside term is a
+    /// journal; a user's file at its path is not.
     #[test]
     fn journals_of_either_header_are_journals_and_other_files_are_not() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j.csv");
         assert!(is_journal(&path), "nothing there");
-        for header in [CSV_HEADER, CSV_HEADER_BEFORE_OUTSIDE] {
+        for header in [CSV_HEADER, CSV_HEADER_BEFORE_BETWEEN, CSV_HEADER_BEFORE_OUTSIDE] {
             std::fs::write(&path, format!("{header}\n1,0.5,0.5,0,0,0,0\n")).unwrap();
             assert!(is_journal(&path), "{header}");
         }
@@ -222,15 +237,15 @@ mod tests {
     fn a_resumed_journal_keeps_the_rows_its_checkpoint_covers() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j.csv");
-        let v = [1.0; 7];
+        let v = [1.0; 8];
         let earlier = (1..=5).map(|s| LossRow(s, v)).collect();
         let mut j = Journal::new(Some(path.clone()), earlier);
         // Resumed from a checkpoint at step 3: rows 4 and 5 of the earlier run are dropped.
-        assert_eq!(j.record(LossRow(4, [2.0; 7])).unwrap(), Some(0));
-        assert_eq!(j.record(LossRow(5, [2.0; 7])).unwrap(), None);
+        assert_eq!(j.record(LossRow(4, [2.0; 8])).unwrap(), Some(0));
+        assert_eq!(j.record(LossRow(5, [2.0; 8])).unwrap(), None);
         let on_disk = read(&path, 100).unwrap();
         assert_eq!(on_disk.len(), 5);
-        assert_eq!(on_disk[3].1, [2.0; 7]);
+        assert_eq!(on_disk[3].1, [2.0; 8]);
         assert_eq!(j.into_rows(5), on_disk);
     }
 }

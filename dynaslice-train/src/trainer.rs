@@ -86,7 +86,7 @@ pub struct Progress {
 impl Progress {
     /// The step's figures by name (besides `step` and `steps`): what Python's progress callback
     /// gets.
-    pub fn figures(&self) -> [(&'static str, f64); 9] {
+    pub fn figures(&self) -> [(&'static str, f64); 10] {
         let t = &self.terms;
         [
             ("loss", self.loss),
@@ -98,6 +98,7 @@ impl Progress {
             ("eikonal", t.eikonal),
             ("spurious", t.spurious),
             ("outside", t.outside),
+            ("between", t.between),
         ]
     }
 }
@@ -109,8 +110,16 @@ impl std::fmt::Display for Progress {
         write!(
             f,
             "loss {:.4e} (surface {:.3e}, orientation {:.3e}, plane {:.3e}, eikonal {:.3e}, \
-             spurious {:.3e}, outside {:.3e}) lr {:.2e}",
-            self.loss, t.surface, t.orientation, t.plane, t.eikonal, t.spurious, t.outside, self.lr
+             spurious {:.3e}, outside {:.3e}, between {:.3e}) lr {:.2e}",
+            self.loss,
+            t.surface,
+            t.orientation,
+            t.plane,
+            t.eikonal,
+            t.spurious,
+            t.outside,
+            t.between,
+            self.lr
         )
     }
 }
