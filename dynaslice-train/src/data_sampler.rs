@@ -4,11 +4,11 @@
 use super::loss::{ContourSample, PlaneKind, PlaneSample};
 use super::objective::Batch;
 use crate::extent_bound::ClassExtents;
-use crate::spatial_bound::parallel_spacing;
 use crate::sampling::{
     sample_space_time, ContourBatch, PlaneBatch, PlaneSampling, PlaneTarget, SampleRng, Sampler,
     SamplingIndex, SpaceTimeBatch,
 };
+use crate::spatial_bound::parallel_spacing;
 use dynaslice_core::Domain;
 use dynaslice_model::SampleRecord;
 use dynaslice_sequence::{Aabb, Sequence};
@@ -226,10 +226,9 @@ impl DataSampler {
             (fingerprint ^ e.margin().to_bits()).wrapping_mul(0x100_0000_01b3)
         });
         // So do the samples between neighbouring planes.
-        let fingerprint = index
-            .neighbour_pairs()
-            .iter()
-            .fold(fingerprint, |h, &n| (h ^ n as u64).wrapping_mul(0x100_0000_01b3));
+        let fingerprint = index.neighbour_pairs().iter().fold(fingerprint, |h, &n| {
+            (h ^ n as u64).wrapping_mul(0x100_0000_01b3)
+        });
         let plane_split = counts.plane_split(&lengths);
         let between_split = plane_split
             .iter()
@@ -452,8 +451,12 @@ impl Sampler for DataSampler {
             .sample_contours(&mut rng, &self.contour_split, &mut self.contour);
         self.index
             .sample_planes(&mut rng, &self.plane_split, &self.plane, &mut self.planes);
-        self.index
-            .sample_between(&mut rng, &self.between_split, &self.plane, &mut self.between);
+        self.index.sample_between(
+            &mut rng,
+            &self.between_split,
+            &self.plane,
+            &mut self.between,
+        );
         sample_space_time(
             &mut rng,
             self.counts.space,
@@ -589,7 +592,11 @@ mod tests {
         };
         let parallel = benchmark((0, 4));
         let mut p = DataSampler::new(&parallel, domain_for(&parallel), counts);
-        assert!(p.neighbour_pairs().iter().all(|&n| n > 0), "{:?}", p.neighbour_pairs());
+        assert!(
+            p.neighbour_pairs().iter().all(|&n| n > 0),
+            "{:?}",
+            p.neighbour_pairs()
+        );
         let mut b = Batch::default();
         p.sample(5, 2, &mut b);
         // Plane samples, then the between samples, then the caps (no nesting here).

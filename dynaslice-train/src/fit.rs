@@ -294,8 +294,8 @@ pub(crate) fn fit_checked(
     let pairs = sampler.neighbour_pairs();
     observer.note(&if pairs.iter().any(|&n| n > 0) {
         format!(
-            "between neighbouring planes that both outline a class ({} pairs per class), their \
-             in-plane distances blended are a target (Eq. 7's weight)",
+            "between neighbouring planes that both outline a class ({} pairs per class), f is \
+             held on the side of their in-plane distances blended (the loss column between)",
             pairs
                 .iter()
                 .map(|n| n.to_string())

@@ -204,7 +204,11 @@ mod tests {
         let older = LossRow::parse("3,0.1,1e-30,0,2.5,0.5,7").unwrap();
         assert_eq!(older.1[6], 0.0, "a six-value row has no outside term");
         let before = LossRow::parse("3,0.1,1e-30,0,2.5,0.5,7,0.25").unwrap();
-        assert_eq!((before.1[6], before.1[7]), (0.25, 0.0), "nor a seven-value row a between");
+        assert_eq!(
+            (before.1[6], before.1[7]),
+            (0.25, 0.0),
+            "nor a seven-value row a between"
+        );
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j.csv");
         let text = format!(
@@ -225,7 +229,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j.csv");
         assert!(is_journal(&path), "nothing there");
-        for header in [CSV_HEADER, CSV_HEADER_BEFORE_BETWEEN, CSV_HEADER_BEFORE_OUTSIDE] {
+        for header in [
+            CSV_HEADER,
+            CSV_HEADER_BEFORE_BETWEEN,
+            CSV_HEADER_BEFORE_OUTSIDE,
+        ] {
             std::fs::write(&path, format!("{header}\n1,0.5,0.5,0,0,0,0\n")).unwrap();
             assert!(is_journal(&path), "{header}");
         }

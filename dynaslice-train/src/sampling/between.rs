@@ -201,11 +201,17 @@ mod tests {
         for i in 0..out.len() {
             let [x, y, z] = out.xyz[i].map(f64::from);
             assert!((0.0..=10.0).contains(&z), "{z}");
-            assert_eq!((out.t[i], out.class[i], out.kind[i]), (0.0, 0, PlaneTarget::Sdf));
+            assert_eq!(
+                (out.t[i], out.class[i], out.kind[i]),
+                (0.0, 0, PlaneTarget::Sdf)
+            );
             let s = z / 10.0;
             let want = (1.0 - s) * square(10.0, [x, y]) + s * square(20.0, [x, y]);
             let got = f64::from(out.target[i]);
-            assert!((got - want).abs() < 1e-4, "{got} against {want} at {x} {y} {z}");
+            assert!(
+                (got - want).abs() < 1e-4,
+                "{got} against {want} at {x} {y} {z}"
+            );
             near += usize::from(want.abs() < 5.0);
         }
         assert!(near > 150, "half the samples near a contour: {near} of 500");

@@ -7,7 +7,8 @@
 #
 #   sh run.sh DYNASLICE OUT TAG SEED [STEPS] [CASES]
 #       OUT: the cases' folder (made on first use); TAG names the runs (e.g. base, new);
-#       CASES: any of ring lesion5 lesion10 nested (default all four)
+#       CASES: any of ring lesion5 lesion10 nested (default all four); EXTRA in the environment:
+#       more training options (e.g. EXTRA='--lambda-regulariser 1')
 set -eu
 bin=$1; out=$2; tag=$3; seed=$4; steps=${5:-1000}; cases=${6:-ring lesion5 lesion10 nested}
 here=$(cd "$(dirname "$0")" && pwd)
@@ -33,7 +34,7 @@ for c in $cases; do
   m=$d/$tag-$c-s$seed
   start=$(date +%s)
   nice -n 10 "$bin" train "$input" -o "$m.dsm" --steps "$steps" --seed "$seed" --threads 2 \
-    --force > "$m.train.log" 2>&1
+    --force ${EXTRA:-} > "$m.train.log" 2>&1
   echo "$c $tag seed $seed: trained in $(( $(date +%s) - start )) s"
   if [ "$c" = nested ]; then
     RAYON_NUM_THREADS=2 "$bin" eval heldout "$m.dsm" "$d/case/heldout.seq" --holdout-planes 0: \
