@@ -13,6 +13,11 @@
 //!   only data: these are facts of the same data off the planes, a structure ending where its
 //!   contours end, not a soft target (λ_d's squared hinge let a lung run on 25 mm past its last
 //!   plane; lab/notes/2026-12-07-clinical-extent.md).
+//! - between two neighbouring parallel planes that both outline class k, with b their in-plane
+//!   distances blended by the point's place between them: ReLU(sign(b)·(b/2 − f^k)), weighted
+//!   1 (f on b's side, at least half as far; not in the paper: without it a wall thinner than
+//!   the planes' spacing swung ±4–5 mm between them under the regulariser, and a squared λ_d
+//!   target there was too weak to hold it; lab/notes/2026-12-07-between-slices.md).
 //!
 //! Every term is a weighted sum over samples; the samplers set the weights (1/N per set and
 //! class, times optional class weights), so the sums are the paper's expectations.

@@ -2,18 +2,20 @@
 //! distances blended as their target (issue 48).
 //!
 //! Why: between two parallel planes nothing of the paper's loss but the regulariser (Eq. 8)
-//! speaks, and a structure thinner than the planes' spacing came out thinner, or broken,
-//! midway (a cine ring's 8 mm myocardium between short-axis slices 20 mm apart: held-out
-//! Dice 0.5–0.7 where ITK's morphological contour interpolation gives 0.93–0.94). Yet the
-//! neighbouring contours already say what lies between them: blending the two planes' 2D
-//! signed distances by the position between them (shape-based interpolation) gives the ring's
-//! midway slices Dice 0.92–0.94 on its own (lab/notes/2026-12-07-between-slices.md). So a
-//! point between two neighbouring planes that both outline a class gets, as an in-plane
-//! sample does (Eq. 7, the same weak λ_d), the target (1 − s)·d_a + s·d_b, with s its
-//! fraction of the way from plane a to plane b and d_a, d_b the exact 2D distances of its
-//! projections. Only where every plane is parallel (the caller decides), only between two
-//! planes of one frame that both outline the class (a structure that begins or ends between
-//! planes is the extent bound's), and nothing is drawn where no such pair exists.
+//! speaks, and a structure thinner than the planes' spacing came out broken midway: a cine
+//! ring's 8 mm myocardium between short-axis slices 20 mm apart swung ±4–5 mm from one gap
+//! to the next (too thick in one, gone in the next; held-out Dice 0.5–0.7 where ITK's
+//! morphological contour interpolation gives 0.93–0.94). Yet the neighbouring contours
+//! already say what lies between them: blending the two planes' 2D signed distances by the
+//! position between them (shape-based interpolation) gives the ring's midway slices Dice
+//! 0.92–0.94 on its own (lab/notes/2026-12-07-between-slices.md). So a point between two
+//! neighbouring planes that both outline a class gets the target (1 − s)·d_a + s·d_b, with s
+//! its fraction of the way from plane a to plane b and d_a, d_b the exact 2D distances of its
+//! projections; the loss asks f to be on its side ([`crate::loss::PlaneKind::Between`]; as an
+//! Eq. 7 target with λ_d it was too weak to move the field). Only where every plane is
+//! parallel (the caller decides), only between two planes of one frame that both outline the
+//! class (a structure that begins or ends between planes is the extent bound's), and nothing
+//! is drawn where no such pair exists.
 
 use super::index::SamplingIndex;
 use super::plane::{PlaneBatch, PlaneSampling, PlaneTarget};
@@ -67,7 +69,8 @@ impl SamplingIndex {
     /// (per [`PlaneSampling::near_fraction`] near a contour of either plane with the class's
     /// spread, else uniform over the first plane's region of interest) moved there along the
     /// normal; its target is (1 − s)·d_a + s·d_b, the two planes' exact 2D signed distances at
-    /// its projections, as a [`PlaneTarget::Sdf`]. Draws nothing for a class without pairs.
+    /// its projections (a [`PlaneTarget::Sdf`] in the batch; the data sampler makes it a
+    /// [`crate::loss::PlaneKind::Between`]). Draws nothing for a class without pairs.
     pub fn sample_between(
         &self,
         rng: &mut SampleRng,
