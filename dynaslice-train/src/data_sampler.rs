@@ -579,8 +579,8 @@ mod tests {
     }
 
     /// Between neighbouring parallel planes that both outline a class, half its plane samples
-    /// more, with blended targets, a mean of their own per class; planes in several
-    /// orientations get none, and their batch is what it was without them.
+    /// more, with blended targets, a mean of their own per class, before the caps; planes in
+    /// several orientations get none (their plane set is the plane samples alone).
     #[test]
     fn between_samples_only_across_parallel_planes() {
         use crate::spatial_bound::tests::benchmark;
