@@ -108,6 +108,11 @@ pub struct RunRecord {
     /// outside; absent where the planes were not all parallel (and in models trained before
     /// it existed).
     pub extent_margin: Option<f32>,
+    /// `between_pairs`: per class, the neighbouring parallel planes that both outline it,
+    /// between which training asked f to take the side of their blended in-plane distances
+    /// (`[3, 6, 5]`); absent where no two such planes exist (and in models trained before it
+    /// existed).
+    pub between_pairs: Option<Vec<u32>>,
     /// `lr`: the initial and final learning rates (`0.001 -> 0.00001`).
     pub lr: Option<(f32, f32)>,
     /// `warmup_steps`: steps of the learning-rate ramp.
@@ -421,6 +426,7 @@ fields! {
     omega_t_max = "omega_t_max",
     plane_band = "plane_band",
     extent_margin = "extent_margin",
+    between_pairs = "between_pairs",
     lr = "lr",
     warmup_steps = "warmup_steps",
     lambda_orientation = "lambda_orientation",
@@ -553,7 +559,7 @@ mod tests {
     /// Metadata as the trainer writes it, every key present.
     const FULL: &str = "trainer = dynaslice 0.1.0\ninput = a.nii.gz + b.nii.gz\nframes = 0:\n\
         reading = labels=1,2,3; planes=sparse\nspace = RAS\nunits = mm\ntime_unit = ms\nnesting = 2:1 -3:2\nwidths = [256, 256, 256]\nsteps = 3000\nseed = 7\nthreads = 2\n\
-        omega_0 = 20\noffset = 0.2\nomega_t_max = inf\nplane_band = 3.1101768\nextent_margin = 1.5\nlr = 0.0001 -> 0.000001\n\
+        omega_0 = 20\noffset = 0.2\nomega_t_max = inf\nplane_band = 3.1101768\nextent_margin = 1.5\nbetween_pairs = [3, 0]\nlr = 0.0001 -> 0.000001\n\
         warmup_steps = 0\nlambda_orientation = 0.1\nlambda_plane = 1\nlambda_regulariser = 0.05\n\
         alpha = 100\ntemporal_factor = 0.5\nsteps_done = 3000\nplanned_steps = 2871\n\
         samples = 1024 contour + 1024 plane per class up to 3 classes, shared beyond (at least \
@@ -572,6 +578,7 @@ mod tests {
         assert_eq!(record.omega_t_max, Some(f32::INFINITY));
         assert_eq!(record.plane_band, Some(3.1101768));
         assert_eq!(record.extent_margin, Some(1.5));
+        assert_eq!(record.between_pairs, Some(vec![3, 0]));
         assert_eq!(record.samples.unwrap().min_per_class, 64);
         assert_eq!(
             record.class_colors.as_deref().unwrap()[1],

@@ -8,6 +8,7 @@ use crate::sampling::{
     sample_space_time, ContourBatch, PlaneBatch, PlaneSampling, PlaneTarget, SampleRng, Sampler,
     SamplingIndex, SpaceTimeBatch,
 };
+use crate::spatial_bound::parallel_spacing;
 use dynaslice_core::Domain;
 use dynaslice_model::SampleRecord;
 use dynaslice_sequence::{Aabb, Sequence};
@@ -162,11 +163,16 @@ pub struct DataSampler {
     fingerprint: u64,
     contour: ContourBatch,
     planes: PlaneBatch,
+    between: PlaneBatch,
     space: SpaceTimeBatch,
     per_class: Vec<usize>,
     /// Contour and plane samples of each class per step ([`SampleCounts::contour_split`]).
     contour_split: Vec<usize>,
     plane_split: Vec<usize>,
+    /// Samples between neighbouring planes of each class per step: half its plane samples
+    /// where it has neighbouring planes that both outline it, else none
+    /// ([`SamplingIndex::sample_between`]).
+    between_split: Vec<usize>,
     /// Optional per-class weights of the contour and plane terms (1 by default).
     class_weight: Vec<f32>,
     /// Each class's extent (parallel planes only), whose signed distance bounds the class from
@@ -207,6 +213,11 @@ impl DataSampler {
             (h ^ c as u64).wrapping_mul(0x100_0000_01b3)
         });
         let index = SamplingIndex::with_progress(seq, progress);
+        // Between neighbouring planes only where every plane is parallel.
+        let index = match parallel_spacing(seq, &domain) {
+            Some((normal, _)) => index.with_neighbour_pairs(normal),
+            None => index,
+        };
         let lengths = index.contour_lengths();
         // The extents change the objective: a checkpoint of a run without them (a run of an
         // earlier version on parallel planes) does not continue with them.
@@ -214,9 +225,20 @@ impl DataSampler {
         let fingerprint = extents.as_ref().map_or(fingerprint, |e| {
             (fingerprint ^ e.margin().to_bits()).wrapping_mul(0x100_0000_01b3)
         });
+        // So do the samples between neighbouring planes.
+        let fingerprint = index.neighbour_pairs().iter().fold(fingerprint, |h, &n| {
+            (h ^ n as u64).wrapping_mul(0x100_0000_01b3)
+        });
+        let plane_split = counts.plane_split(&lengths);
+        let between_split = plane_split
+            .iter()
+            .zip(index.neighbour_pairs())
+            .map(|(&n, pairs)| if pairs > 0 { n / 2 } else { 0 })
+            .collect();
         DataSampler {
             contour_split: counts.contour_split(&lengths),
-            plane_split: counts.plane_split(&lengths),
+            plane_split,
+            between_split,
             index,
             domain,
             counts,
@@ -230,6 +252,7 @@ impl DataSampler {
             fingerprint,
             contour: ContourBatch::default(),
             planes: PlaneBatch::default(),
+            between: PlaneBatch::default(),
             space: SpaceTimeBatch::default(),
             per_class: vec![0; seq.classes().len()],
             class_weight: vec![1.0; seq.classes().len()],
@@ -248,6 +271,13 @@ impl DataSampler {
     /// parallel, nothing is imposed off them).
     pub fn extents(&self) -> Option<&ClassExtents> {
         self.extents.as_ref()
+    }
+
+    /// Each class's number of neighbouring plane pairs that both outline it, between which
+    /// samples take the blend of their in-plane distances as target (none where the planes are
+    /// not all parallel).
+    pub fn neighbour_pairs(&self) -> Vec<usize> {
+        self.index.neighbour_pairs()
     }
 
     /// Weights each class's contour and plane terms by `weights[k]` (one finite, positive weight
@@ -378,6 +408,39 @@ impl DataSampler {
     }
 }
 
+impl DataSampler {
+    /// Appends the samples between neighbouring planes drawn this step to the plane set: the
+    /// blended in-plane distance as a [`PlaneKind::Between`] target (no deeper than the class's
+    /// extent allows), a per-class mean with the class's weight.
+    fn between_samples(&mut self, b: &mut Batch) {
+        if self.between.is_empty() {
+            return;
+        }
+        let first = b.plane.len();
+        let sigma = self.domain.output_scale;
+        for (i, x) in self.between.xyz.iter().enumerate() {
+            let x = self.domain.normalise(*x, self.between.t[i]);
+            let class = self.between.class[i];
+            let mut target = self.between.target[i] / sigma;
+            if let (Some(e), true) = (&self.extents, target < 0.0) {
+                target = target.max(-e.depth(x, class as usize));
+            }
+            b.plane_x.push(x);
+            b.plane.push(PlaneSample {
+                class,
+                target,
+                kind: PlaneKind::Between,
+                weight: 0.0,
+            });
+        }
+        let weighted =
+            Self::weighted_classes(&mut self.per_class, &self.class_weight, &self.between.class);
+        for (s, (_, w)) in b.plane[first..].iter_mut().zip(weighted) {
+            s.weight = w;
+        }
+    }
+}
+
 /// The fewest cap samples a class gets per step.
 const MIN_CAP_SAMPLES: usize = 16;
 
@@ -388,6 +451,12 @@ impl Sampler for DataSampler {
             .sample_contours(&mut rng, &self.contour_split, &mut self.contour);
         self.index
             .sample_planes(&mut rng, &self.plane_split, &self.plane, &mut self.planes);
+        self.index.sample_between(
+            &mut rng,
+            &self.between_split,
+            &self.plane,
+            &mut self.between,
+        );
         sample_space_time(
             &mut rng,
             self.counts.space,
@@ -429,7 +498,9 @@ impl Sampler for DataSampler {
             Some(e) => e.lower_bounds(&b.space_x, &mut b.space_floor),
             None => b.space_floor.clear(),
         }
+        // After the hole samples: a blended target is no depth a hole bound could rest on.
         self.hole_samples(b);
+        self.between_samples(b);
         self.cap_samples(&mut rng, b);
     }
 
@@ -445,7 +516,7 @@ impl Sampler for DataSampler {
             None => 0,
         };
         sum(&self.contour_split)
-            .max(2 * sum(&self.plane_split) + caps)
+            .max(2 * sum(&self.plane_split) + sum(&self.between_split) + caps)
             .max(self.counts.space)
     }
 
@@ -505,6 +576,41 @@ mod tests {
             ..counts
         };
         assert_eq!(small.contour_split(&[1.0, 9.0, 1.0, 1.0, 1.0]), vec![32; 5]);
+    }
+
+    /// Between neighbouring parallel planes that both outline a class, half its plane samples
+    /// more, with blended targets, a mean of their own per class, before the caps; planes in
+    /// several orientations get none (their plane set is the plane samples alone).
+    #[test]
+    fn between_samples_only_across_parallel_planes() {
+        use crate::spatial_bound::tests::benchmark;
+        let counts = SampleCounts {
+            contour_per_class: 32,
+            plane_per_class: 32,
+            space: 16,
+            ..SampleCounts::default()
+        };
+        let parallel = benchmark((0, 4));
+        let mut p = DataSampler::new(&parallel, domain_for(&parallel), counts);
+        assert!(
+            p.neighbour_pairs().iter().all(|&n| n > 0),
+            "{:?}",
+            p.neighbour_pairs()
+        );
+        let mut b = Batch::default();
+        p.sample(5, 2, &mut b);
+        // Plane samples, then the between samples, then the caps (no nesting here).
+        let between = &b.plane[32..48];
+        assert!(between.iter().all(|s| s.kind == PlaneKind::Between));
+        let total: f32 = between.iter().map(|s| s.weight).sum();
+        assert!((total - 1.0).abs() < 1e-5, "a mean: {total}");
+        assert_eq!(b.plane[48].kind, PlaneKind::Outside, "caps follow");
+        assert!(b.plane.len() <= p.max_set_len());
+        let mixed = benchmark((1, 4));
+        let mut m = DataSampler::new(&mixed, domain_for(&mixed), counts);
+        assert!(m.neighbour_pairs().iter().all(|&n| n == 0));
+        m.sample(5, 2, &mut b);
+        assert_eq!(b.plane.len(), 32, "no between samples, no caps");
     }
 
     /// Class weights scale exactly their class's contour and plane sample weights, change the

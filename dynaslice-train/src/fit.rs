@@ -304,6 +304,20 @@ pub(crate) fn fit_checked(
         ),
         None => "planes not all parallel: no class held to its contours' box".into(),
     });
+    let pairs = sampler.neighbour_pairs();
+    observer.note(&if pairs.iter().any(|&n| n > 0) {
+        format!(
+            "between neighbouring planes that both outline a class ({} pairs per class), f is \
+             held on the side of their in-plane distances blended (the loss column between)",
+            pairs
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    } else {
+        "no two neighbouring parallel planes outline one class: no targets between planes".into()
+    });
     if let Some(w) = &spec.class_weights {
         sampler = sampler.with_class_weights(w).map_err(|message| SpecError {
             option: "class_weights",
@@ -370,6 +384,10 @@ pub(crate) fn fit_checked(
         temporal_factor: spec.temporal_factor(),
         class_weights: spec.class_weights.as_deref(),
         extent_margin,
+        between_pairs: pairs
+            .iter()
+            .any(|&n| n > 0)
+            .then(|| pairs.iter().map(|&n| n as u32).collect()),
         // Classes drawn nested and trained disjoint: outputs recompose the outer from it.
         input: RunRecord {
             nesting: (!seq.nesting().is_empty()).then(|| {

@@ -3,7 +3,7 @@
 //! `dynaslice_test_support::reference`, whose ∇ₓf is carried by forward-mode tangents), and the
 //! trainer's f and ∇ₓf against the core's evaluation of the exported model.
 
-use super::loss::{ContourSample, LossWeights, PlaneKind, PlaneSample};
+use super::loss::{ContourSample, LossWeights, PlaneKind, PlaneSample, BETWEEN_SHARE};
 use super::network::Network;
 use super::objective::{Batch, Objective, SpaceTimeScheme};
 use super::passes::{Tangents, Workspace};
@@ -72,6 +72,12 @@ fn reference_loss(
             PlaneKind::Outside => {
                 kinks.push(r);
                 loss += s.weight as f64 * (-r).max(0.0);
+            }
+            PlaneKind::Between => {
+                let side = (s.target as f64).signum() * f64::from(u8::from(s.target != 0.0));
+                let r = side * (BETWEEN_SHARE as f64 * s.target as f64 - f[s.class as usize]);
+                kinks.push(r);
+                loss += s.weight as f64 * r.max(0.0);
             }
         }
     }
@@ -232,7 +238,7 @@ fn batch_strategy(k: u32) -> impl Strategy<Value = Batch> {
     });
     (
         proptest::collection::vec((point(), 0..k, normal), 1..12),
-        proptest::collection::vec((point(), 0..k, -0.5f32..0.5, 0..3u8), 1..12),
+        proptest::collection::vec((point(), 0..k, -0.5f32..0.5, 0..4u8), 1..12),
         // Each space-time sample's lower bound per channel: beyond the class's extent or not.
         proptest::collection::vec(
             (
@@ -258,7 +264,12 @@ fn batch_strategy(k: u32) -> impl Strategy<Value = Batch> {
                 .map(|p| PlaneSample {
                     class: p.1,
                     target: p.2,
-                    kind: [PlaneKind::Sdf, PlaneKind::Absent, PlaneKind::Outside][p.3 as usize],
+                    kind: [
+                        PlaneKind::Sdf,
+                        PlaneKind::Absent,
+                        PlaneKind::Outside,
+                        PlaneKind::Between,
+                    ][p.3 as usize],
                     weight: 1.0 / plane.len() as f32,
                 })
                 .collect(),

@@ -10,17 +10,19 @@ use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 
 /// The loss log's header; a row is the step then these values.
-pub const CSV_HEADER: &str = "step,total,surface,orientation,plane,eikonal,spurious,outside,motion";
+pub const CSV_HEADER: &str =
+    "step,total,surface,orientation,plane,eikonal,spurious,outside,motion,between";
 
-/// The headers of loss logs written before the outside and the motion terms existed (rows of
-/// six and seven values).
-const CSV_HEADERS_BEFORE: [&str; 2] = [
+/// The headers of loss logs written before the outside, the motion and the between terms
+/// existed (rows of six, seven and eight values).
+const CSV_HEADERS_BEFORE: [&str; 3] = [
     "step,total,surface,orientation,plane,eikonal,spurious",
     "step,total,surface,orientation,plane,eikonal,spurious,outside",
+    "step,total,surface,orientation,plane,eikonal,spurious,outside,motion",
 ];
 
 /// The names of a row's values after the step, in column order, for plots.
-pub const TERM_NAMES: [&str; 8] = [
+pub const TERM_NAMES: [&str; 9] = [
     "total",
     "surface |f|",
     "orientation",
@@ -29,12 +31,13 @@ pub const TERM_NAMES: [&str; 8] = [
     "spurious exp(-a|f|)",
     "outside ReLU(b-f)",
     "motion (strain, fold)",
+    "between ReLU(sign(b)(b/2-f))",
 ];
 
 /// One step's losses: the step (1-based), then total, surface, orientation, plane, eikonal,
-/// spurious, outside, motion.
+/// spurious, outside, motion, between.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LossRow(pub u64, pub [f64; 8]);
+pub struct LossRow(pub u64, pub [f64; 9]);
 
 impl LossRow {
     /// The row of step `step` with `terms` and weighted `total`.
@@ -50,6 +53,7 @@ impl LossRow {
                 t.spurious,
                 t.outside,
                 t.motion,
+                t.between,
             ],
         )
     }
@@ -59,21 +63,21 @@ impl LossRow {
     pub fn line(&self) -> String {
         let v = self.1;
         format!(
-            "{},{},{},{},{},{},{},{},{}\n",
-            self.0, v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]
+            "{},{},{},{},{},{},{},{},{},{}\n",
+            self.0, v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8]
         )
     }
 
     /// The row of a CSV line, or `None` if it is not one (a torn last line). A row of a
-    /// journal written before the outside or the motion term existed (six or seven values)
-    /// reads with them 0.
+    /// journal written before the outside, the motion or the between term existed (six to
+    /// eight values) reads with them 0.
     pub fn parse(line: &str) -> Option<LossRow> {
         let mut it = line.trim().split(',');
         let step = it.next()?.parse().ok()?;
         let values: Vec<f64> = it.map(|x| x.parse().ok()).collect::<Option<_>>()?;
-        let mut v = [0.0; 8];
+        let mut v = [0.0; 9];
         match values.len() {
-            6..=8 => v[..values.len()].copy_from_slice(&values),
+            6..=9 => v[..values.len()].copy_from_slice(&values),
             _ => return None,
         }
         Some(LossRow(step, v))
@@ -93,8 +97,8 @@ pub fn read(path: &Path, max_steps: u64) -> Result<Vec<LossRow>> {
     let Ok(file) = File::open(path) else {
         return Ok(Vec::new());
     };
-    // The longest line is 20 digits and eight f64s of at most 24 characters, plus commas.
-    let max = max_steps.saturating_add(1).saturating_mul(230);
+    // The longest line is 20 digits and nine f64s of at most 24 characters, plus commas.
+    let max = max_steps.saturating_add(1).saturating_mul(260);
     let mut rows = Vec::new();
     let reader = BufReader::new(file.take(max));
     for line in reader.lines().skip(1) {
@@ -109,7 +113,7 @@ pub fn read(path: &Path, max_steps: u64) -> Result<Vec<LossRow>> {
 
 /// Whether `path` may be taken as a journal: nothing is there, or a regular file (not a link)
 /// whose first line is the loss log's header ([`CSV_HEADER`], or the header of a journal
-/// written before the outside or the motion term existed), as every journal's is from its
+/// written before the outside, the motion or the between term existed), as every journal's is from its
 /// first write; a user's file there is not.
 pub fn is_journal(path: &Path) -> bool {
     match std::fs::symlink_metadata(path) {
@@ -196,19 +200,25 @@ mod tests {
 
     #[test]
     fn rows_round_trip_and_torn_lines_end_the_journal() {
-        let r = LossRow(3, [0.1, 1e-30, 0.0, 2.5, 1.0 / 3.0, 7.0, 0.25, 0.125]);
+        let r = LossRow(3, [0.1, 1e-30, 0.0, 2.5, 1.0 / 3.0, 7.0, 0.25, 0.125, 0.5]);
         assert_eq!(LossRow::parse(&r.line()), Some(r));
         let older = LossRow::parse("3,0.1,1e-30,0,2.5,0.5,7").unwrap();
         assert_eq!(
             older.1[6..],
-            [0.0; 2],
-            "a six-value row has no outside or motion term"
+            [0.0; 3],
+            "a six-value row has no outside, motion or between term"
         );
         let older = LossRow::parse("3,0.1,1e-30,0,2.5,0.5,7,0.25").unwrap();
         assert_eq!(
             (older.1[6], older.1[7]),
             (0.25, 0.0),
             "a seven-value row has no motion"
+        );
+        let older = LossRow::parse("3,0.1,1e-30,0,2.5,0.5,7,0.25,0.125").unwrap();
+        assert_eq!(
+            (older.1[7], older.1[8]),
+            (0.125, 0.0),
+            "an eight-value row has no between"
         );
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j.csv");
@@ -223,7 +233,7 @@ mod tests {
         assert!(read(&dir.path().join("none"), 100).unwrap().is_empty());
     }
 
-    /// A journal of this version or of one before the outside or the motion term is a
+    /// A journal of this version or of one before the outside, the motion or the between term is a
     /// journal; a user's file at its path is not.
     #[test]
     fn journals_of_either_header_are_journals_and_other_files_are_not() {
@@ -242,15 +252,15 @@ mod tests {
     fn a_resumed_journal_keeps_the_rows_its_checkpoint_covers() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("j.csv");
-        let v = [1.0; 8];
+        let v = [1.0; 9];
         let earlier = (1..=5).map(|s| LossRow(s, v)).collect();
         let mut j = Journal::new(Some(path.clone()), earlier);
         // Resumed from a checkpoint at step 3: rows 4 and 5 of the earlier run are dropped.
-        assert_eq!(j.record(LossRow(4, [2.0; 8])).unwrap(), Some(0));
-        assert_eq!(j.record(LossRow(5, [2.0; 8])).unwrap(), None);
+        assert_eq!(j.record(LossRow(4, [2.0; 9])).unwrap(), Some(0));
+        assert_eq!(j.record(LossRow(5, [2.0; 9])).unwrap(), None);
         let on_disk = read(&path, 100).unwrap();
         assert_eq!(on_disk.len(), 5);
-        assert_eq!(on_disk[3].1, [2.0; 8]);
+        assert_eq!(on_disk[3].1, [2.0; 9]);
         assert_eq!(j.into_rows(5), on_disk);
     }
 }

@@ -13,6 +13,11 @@
 //!   only data: these are facts of the same data off the planes, a structure ending where its
 //!   contours end, not a soft target (λ_d's squared hinge let a lung run on 25 mm past its last
 //!   plane; lab/notes/2026-12-07-clinical-extent.md).
+//! - between two neighbouring parallel planes that both outline class k, with b their in-plane
+//!   distances blended by the point's place between them: ReLU(sign(b)·(b/2 − f^k)), weighted
+//!   1 (f on b's side, at least half as far; not in the paper: without it a wall thinner than
+//!   the planes' spacing swung ±4–5 mm between them under the regulariser, and a squared λ_d
+//!   target there was too weak to hold it; lab/notes/2026-12-07-between-slices.md).
 //!
 //! Every term is a weighted sum over samples; the samplers set the weights (1/N per set and
 //! class, times optional class weights), so the sums are the paper's expectations.
@@ -49,6 +54,9 @@ pub struct LossTerms {
     /// [λ_s ‖J_u‖²_F + ReLU(δ − det(I + J_u))] on space-time samples, weights included; 0
     /// without motion.
     pub motion: f64,
+    /// Σ w ReLU(sign(b)·(b/2 − f)) between neighbouring planes, b their blended in-plane
+    /// distance.
+    pub between: f64,
 }
 
 impl LossTerms {
@@ -60,6 +68,7 @@ impl LossTerms {
             + w.regulariser as f64 * (self.eikonal + self.spurious)
             + self.outside
             + self.motion
+            + self.between
     }
 
     /// Adds another partial sum (chunks are summed in a fixed order for determinism).
@@ -71,6 +80,7 @@ impl LossTerms {
         self.spurious += o.spurious;
         self.outside += o.outside;
         self.motion += o.motion;
+        self.between += o.between;
     }
 }
 
@@ -95,7 +105,15 @@ pub enum PlaneKind {
     /// The class is known outside by at least `target` (beyond its extent, or inside a class
     /// nested in it; the point need not lie on a plane): ReLU(target − f).
     Outside,
+    /// Between two neighbouring planes, `target` is their in-plane distances blended by the
+    /// point's place between them (`sampling::SamplingIndex::sample_between`): f is asked to
+    /// be on the target's side, at least half as far, ReLU(sign(target)·(target/2 − f)).
+    Between,
 }
+
+/// The share of a [`PlaneKind::Between`] target f must reach: the sign, with a margin that
+/// grows with the depth the neighbouring planes agree on, not their distances themselves.
+pub const BETWEEN_SHARE: f32 = 0.5;
 
 /// A plane sample of one class.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -170,6 +188,14 @@ pub fn plane(
                 if r < 0.0 {
                     terms.outside -= (s.weight * r) as f64;
                     g[i * k + c] = -s.weight;
+                }
+            }
+            PlaneKind::Between => {
+                let side = sign(s.target);
+                let r = side * (BETWEEN_SHARE * s.target - out[i * k + c]);
+                if r > 0.0 {
+                    terms.between += (s.weight * r) as f64;
+                    g[i * k + c] = -side * s.weight;
                 }
             }
         }

@@ -58,6 +58,9 @@ pub struct TrainedModel<'a> {
     /// How far past its contours each class's extent reached (world units), where one was
     /// imposed ([`crate::extent_bound`]).
     pub extent_margin: Option<f32>,
+    /// Per class, the neighbouring plane pairs between which samples took their blended
+    /// in-plane distances as target, where any class had one ([`crate::sampling`]).
+    pub between_pairs: Option<Vec<u32>>,
     /// What was trained on: `input`, `frames`, `space` and `units` of the record (the rest is
     /// filled from the fields above).
     pub input: RunRecord,
@@ -93,6 +96,7 @@ impl TrainedModel<'_> {
             omega_t_max: Some(o.omega_t_max),
             plane_band: o.plane_band.map(|b| b.max),
             extent_margin: self.extent_margin,
+            between_pairs: self.between_pairs.clone(),
             lr: Some((o.lr, o.lr_final)),
             warmup_steps: Some(o.warmup_steps),
             lambda_orientation: Some(l.orientation),

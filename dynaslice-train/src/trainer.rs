@@ -90,7 +90,7 @@ pub struct Progress {
 impl Progress {
     /// The step's figures by name (besides `step` and `steps`): what Python's progress callback
     /// gets.
-    pub fn figures(&self) -> [(&'static str, f64); 10] {
+    pub fn figures(&self) -> [(&'static str, f64); 11] {
         let t = &self.terms;
         [
             ("loss", self.loss),
@@ -103,6 +103,7 @@ impl Progress {
             ("spurious", t.spurious),
             ("outside", t.outside),
             ("motion", t.motion),
+            ("between", t.between),
         ]
     }
 }
@@ -114,7 +115,7 @@ impl std::fmt::Display for Progress {
         write!(
             f,
             "loss {:.4e} (surface {:.3e}, orientation {:.3e}, plane {:.3e}, eikonal {:.3e}, \
-             spurious {:.3e}, outside {:.3e}, motion {:.3e}) lr {:.2e}",
+             spurious {:.3e}, outside {:.3e}, motion {:.3e}, between {:.3e}) lr {:.2e}",
             self.loss,
             t.surface,
             t.orientation,
@@ -123,6 +124,7 @@ impl std::fmt::Display for Progress {
             t.spurious,
             t.outside,
             t.motion,
+            t.between,
             self.lr
         )
     }

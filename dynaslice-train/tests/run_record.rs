@@ -51,10 +51,11 @@ fn the_trainers_metadata_is_a_run_record() {
     assert!(record.other.is_empty(), "unknown lines: {:?}", record.other);
     for key in RunRecord::KEYS {
         // A run without a time budget plans no schedule; these classes are not nested; the
-        // benchmark's planes are not all parallel, so no plane band and no extent.
+        // benchmark's planes are not all parallel, so no plane band, no extent and no
+        // samples between neighbouring planes.
         let absent = matches!(
             *key,
-            "planned_steps" | "nesting" | "plane_band" | "extent_margin"
+            "planned_steps" | "nesting" | "plane_band" | "extent_margin" | "between_pairs"
         );
         assert_eq!(
             text.lines().any(|l| l.starts_with(&format!("{key} = "))),
@@ -93,8 +94,9 @@ fn the_trainers_metadata_is_a_run_record() {
 }
 
 /// A run on parallel planes records its plane band, the one `spatial_bound` gives its data
-/// (`--no-plane-band` records none), and the margin of its classes' extents, half the planes'
-/// spacing in world units.
+/// (`--no-plane-band` records none), the margin of its classes' extents, half the planes'
+/// spacing in world units, and its classes' pairs of neighbouring planes that both outline
+/// them (the sampler's count).
 #[test]
 fn a_run_on_parallel_planes_records_its_plane_band() {
     use dynaslice_train::data_sampler::domain_for;
@@ -143,4 +145,16 @@ fn a_run_on_parallel_planes_records_its_plane_band() {
         (margin - 0.5 * spacing).abs() < 1e-4 * spacing,
         "{margin} against half of {spacing}"
     );
+    let sampler = dynaslice_train::data_sampler::DataSampler::new(
+        &seq,
+        domain_for(&seq),
+        TrainSpec::default().counts(),
+    );
+    let pairs: Vec<u32> = sampler
+        .neighbour_pairs()
+        .iter()
+        .map(|&n| n as u32)
+        .collect();
+    assert!(pairs.iter().all(|&n| n > 0), "{pairs:?}");
+    assert_eq!(banded.between_pairs, Some(pairs));
 }

@@ -38,6 +38,10 @@ pub(crate) struct ClassEntry {
     /// radius, a strip's or a ring's width. Near-contour samples spread no wider than a
     /// fraction of it, so a small or thin structure's samples fall on it, not around it.
     pub width: f64,
+    /// Neighbouring planes of one frame that both outline the class (annotation indices, the
+    /// first below the second along the planes' normal), where the planes are parallel
+    /// ([`SamplingIndex::with_neighbour_pairs`]).
+    pub between: Vec<(usize, usize)>,
 }
 
 /// Precomputed sampling structures for a [`Sequence`]: a [`PolygonSdf`] for every contoured

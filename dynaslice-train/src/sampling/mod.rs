@@ -23,11 +23,13 @@
 //! | [`ContourBatch`] | \|f(x, tᵢ)\| and 𝒩 (Eq. 5, 6) | world xyz, world outward normal, t, class |
 //! | [`PlaneBatch`] | 𝒟 (Eq. 7), plus absences | world xyz, t, class, target, [`PlaneTarget`] |
 //! | [`SpaceTimeBatch`] | ℛ (Eq. 8) | world xyz, t |
+//! | [`PlaneBatch`] from [`SamplingIndex::sample_between`] | between neighbouring parallel planes: f on the side of their blended in-plane distances (not in the paper) | world xyz, t, class, blended target |
 //!
 //! Results depend only on the sequence, the counts and the [`SampleRng`] seed and stream: the
 //! same on every platform and thread count. Use one stream per step (or per worker) for
 //! independent batches. Sampling allocates nothing once the batches have reached their size.
 
+mod between;
 mod contour;
 mod index;
 mod plane;

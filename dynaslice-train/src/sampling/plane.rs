@@ -76,7 +76,7 @@ impl PlaneBatch {
         self.t.is_empty()
     }
 
-    fn clear(&mut self) {
+    pub(super) fn clear(&mut self) {
         self.xyz.clear();
         self.t.clear();
         self.class.clear();
