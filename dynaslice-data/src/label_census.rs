@@ -69,7 +69,7 @@ pub struct Stored {
 
 impl Stored {
     /// `voxel`, and `description` (a NIfTI `descrip` or `intent_name`, an NRRD `content`,
-    /// named in words by `what`) where one of its words names an image ([`IMAGE_WORDS`]).
+    /// named in words by `what`) where one of its words names an image (`IMAGE_WORDS`).
     pub fn new(voxel: VoxelType, what: &str, description: &str) -> Stored {
         let says = description
             .split(|c: char| !c.is_ascii_alphanumeric())
@@ -92,7 +92,7 @@ pub struct Census {
     /// Distinct nonzero values: the classes they would make.
     pub count: usize,
     /// Whether [`Census::count`] is exact; otherwise there are more (a huge range, counted up
-    /// to [`HASHED_VALUES`]).
+    /// to `HASHED_VALUES`).
     pub exact: bool,
     /// The smallest and largest value, background included (`None`: no voxel).
     pub range: Option<(i32, i32)>,

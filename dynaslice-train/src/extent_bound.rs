@@ -16,7 +16,7 @@
 //! in the frame of the data's planes where they are all parallel (the planes' in-plane axes and
 //! normal), grown on every side by half the planes' median spacing, the slab a contour stands
 //! for. A shape inside a box has a signed distance at least the box's everywhere
-//! ([`box_distance`]), so f^k ≥ that is a fact of the data, imposed as ReLU(b − f^k) with the
+//! (`box_distance`), so f^k ≥ that is a fact of the data, imposed as ReLU(b − f^k) with the
 //! surface term's weight ([`crate::loss`]) on cap samples drawn around the box's faces
 //! ([`ClassExtents::cap_sample`]) and on the space-time samples; an in-plane target inside the
 //! class is no deeper than the box allows ([`ClassExtents::depth`]). It concerns parallel stacks
@@ -98,7 +98,7 @@ impl ClassExtents {
     }
 
     /// A point near class `class`'s box, in normalised (x, y, z), and its lower bound (the
-    /// box's signed distance there, [`box_distance`]), or `None` for a class without a box:
+    /// box's signed distance there, `box_distance`), or `None` for a class without a box:
     /// half the time at one of the two end faces (the caps, across the planes), else at one of
     /// the four side faces drawn by area; a point uniform on the face, moved along its normal
     /// by a distance uniform from two plane spacings inside to the cap reach outside (half the
@@ -144,7 +144,7 @@ impl ClassExtents {
 
     /// Fills `out` (cleared first) with the lower bound of every class at every point of `x`
     /// (normalised), point-major (`out[i·K + k]`): the signed distance of class k's box
-    /// ([`box_distance`]; −∞ for a class without one).
+    /// (`box_distance`; −∞ for a class without one).
     pub fn lower_bounds(&self, x: &[[f32; 4]], out: &mut Vec<f32>) {
         out.clear();
         for p in x {

@@ -168,7 +168,7 @@ impl WarpWorkspace {
 }
 
 /// The motion's regulariser on `n` points of u's stacked [U; ∂U/∂x; ∂U/∂y; ∂U/∂z] (`out`, each
-/// n × 3, J_u[a][d] = ∂u_a/∂x_d in group 1 + d), each point weighing `weight`:
+/// n × 3, J_u\[a\]\[d\] = ∂u_a/∂x_d in group 1 + d), each point weighing `weight`:
 /// λ_s ‖J_u‖²_F + ReLU(δ − det(I + J_u)) ([`STRAIN_WEIGHT`], [`FOLD_MARGIN`]). Writes its
 /// gradient to `g` in the same layout (zero on U).
 pub fn regulariser(out: &[f32], weight: f32, g: &mut [f32]) -> LossTerms {
