@@ -18,7 +18,7 @@
 //! is drawn where no such pair exists.
 
 use super::index::SamplingIndex;
-use super::plane::{PlaneBatch, PlaneSampling, PlaneTarget};
+use super::plane::{near_contour, PlaneBatch, PlaneSampling, PlaneTarget};
 use super::rng::SampleRng;
 
 /// Planes closer than this (world units) along their normal are one position.
@@ -104,9 +104,7 @@ impl SamplingIndex {
                     } else {
                         (sb, true)
                     };
-                    let (c, _) = side.point_at_arc_length(rng.range(0.0, side.perimeter()));
-                    let (g0, g1) = rng.normal_pair();
-                    let p = [c[0] + sigma * g0, c[1] + sigma * g1];
+                    let p = near_contour(rng, side, sigma);
                     let plane = if on_b { &pb.plane } else { &pa.plane };
                     (plane.to_world(p), on_b)
                 } else {

@@ -3,6 +3,7 @@
 
 use super::index::SamplingIndex;
 use super::rng::SampleRng;
+use dynaslice_geometry::PolygonSdf;
 
 /// What a plane sample's `target` means.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -126,9 +127,7 @@ impl SamplingIndex {
                 None => (uniform(rng), 0.0, PlaneTarget::LowerBound),
                 Some(sdf) => {
                     let p = if rng.uniform() < how.near_fraction {
-                        let (c, _) = sdf.point_at_arc_length(rng.range(0.0, sdf.perimeter()));
-                        let (g0, g1) = rng.normal_pair();
-                        [c[0] + sigma * g0, c[1] + sigma * g1]
+                        near_contour(rng, sdf, sigma)
                     } else {
                         uniform(rng)
                     };
@@ -142,4 +141,12 @@ impl SamplingIndex {
             out.kind.push(kind);
         }
     }
+}
+
+/// A point near `sdf`'s contour: a point of it uniform by arc length, moved by a normal draw of
+/// spread `sigma` in each in-plane axis.
+pub(super) fn near_contour(rng: &mut SampleRng, sdf: &PolygonSdf, sigma: f64) -> [f64; 2] {
+    let (c, _) = sdf.point_at_arc_length(rng.range(0.0, sdf.perimeter()));
+    let (g0, g1) = rng.normal_pair();
+    [c[0] + sigma * g0, c[1] + sigma * g1]
 }
