@@ -70,7 +70,7 @@ fn trains_writes_outputs_and_resumes_bit_for_bit_after_a_kill() {
     child.kill().unwrap();
     child.wait().unwrap();
     assert!(!resumed.exists(), "killed before the end: no model yet");
-    // Checkpoint layout: magic, fingerprint, then the step (see train/checkpoint.rs).
+    // Checkpoint layout: magic, fingerprint, then the step (see dynaslice-optim/src/checkpoint.rs).
     let saved = std::fs::read(&ckpt).unwrap();
     let step = u64::from_le_bytes(saved[16..24].try_into().unwrap());
     assert!(step > 0 && step < 1500, "killed mid-way, at step {step}");

@@ -10,7 +10,7 @@
 //! - [`sampling`]: area-uniform contour, plane and space-time samples of a sequence;
 //!   [`data_sampler`]: those samples in the network's normalised frame, per step.
 //! - [`objective`]: the loss and gradient of one batch over worker threads.
-//! - [`adam`]: the optimiser; [`checkpoint`]: resumable state.
+//! - the optimiser (Adam) and the resumable state (checkpoints): the `dynaslice-optim` crate.
 //! - [`mod@bench`]: step throughput against the machine's sgemm peak.
 //! - [`trainer`]: the loop, with its schedule, time limit and checkpoints.
 //! - [`flags`]: the table of training options (name, help, default, limit);
@@ -23,9 +23,7 @@
 
 #![warn(missing_docs)]
 
-pub mod adam;
 pub mod bench;
-pub mod checkpoint;
 pub mod data_sampler;
 pub mod extent_bound;
 pub mod fit;
@@ -40,7 +38,6 @@ pub mod objective;
 pub mod passes;
 pub mod reverse_over_reverse;
 pub mod sampling;
-pub mod schedule_plan;
 mod simd;
 pub mod spatial_bound;
 pub mod spec;

@@ -4,17 +4,17 @@
 //! only on the thread count (see [`super::objective`]), so a run resumed from a checkpoint ends
 //! with the same model, bit for bit, as an uninterrupted one with the same seed and threads.
 
-use super::adam::{Adam, AdamConfig};
-use super::checkpoint::Checkpoint;
 use super::loss::{LossTerms, LossWeights};
 use super::network::Network;
 use super::objective::{Batch, Objective};
 use super::sampling::Sampler;
-use super::schedule_plan::{SchedulePlan, CALIBRATION_STEPS};
 use super::spatial_bound::PlaneBand;
 use super::warp::MotionOptions;
 use anyhow::{Context, Result};
 use dynaslice_core::Layout;
+use dynaslice_optim::adam::{Adam, AdamConfig};
+use dynaslice_optim::checkpoint::Checkpoint;
+use dynaslice_optim::schedule_plan::{SchedulePlan, CALIBRATION_STEPS};
 use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};

@@ -28,9 +28,9 @@ use dynaslice_data::nrrd::{write_segmentation, SegmentationHeader};
 use dynaslice_data::{csl, ClassInfo, LabelTable, Sequence};
 use dynaslice_sequence::native;
 use dynaslice_test_support::fixtures::{csl_file, SQUARE_WITH_HOLE_PLANE, TRIANGLE_PLANE};
-use dynaslice_train::adam::{Adam, AdamConfig};
-use dynaslice_train::checkpoint::Checkpoint;
-use dynaslice_train::schedule_plan::SchedulePlan;
+use dynaslice_optim::adam::{Adam, AdamConfig};
+use dynaslice_optim::checkpoint::Checkpoint;
+use dynaslice_optim::schedule_plan::SchedulePlan;
 
 /// A named input: the file name it is written under and its bytes.
 pub type Named = (String, Vec<u8>);

@@ -21,9 +21,9 @@ use dynaslice_data::label_volume::{det3, LabelVolume};
 use dynaslice_data::rtstruct::{self, RoiExtent};
 use dynaslice_data::{csl, manifest, nrrd, LabelTable, Sequence};
 use dynaslice_sequence::native;
-use dynaslice_train::adam::{Adam, AdamConfig};
-use dynaslice_train::checkpoint::Checkpoint;
-use dynaslice_train::schedule_plan::SchedulePlan;
+use dynaslice_optim::adam::{Adam, AdamConfig};
+use dynaslice_optim::checkpoint::Checkpoint;
+use dynaslice_optim::schedule_plan::SchedulePlan;
 
 use crate::fixtures;
 

@@ -1,5 +1,5 @@
 //! Timed training at equal wall time: the schedule planned to end when the budget is spent (the
-//! trainer's `time_limit`, [`dynaslice_train::schedule_plan::CALIBRATION_STEPS`]) against the former
+//! trainer's `time_limit`, `dynaslice_optim::schedule_plan::CALIBRATION_STEPS`) against the former
 //! behaviour, a cosine `cap` steps long cut off when the budget is spent. Both runs of a seed
 //! start from the same initialisation and samples; scored at all 37 frames against the exact
 //! shapes (3D IoU, Chamfer distance ×10⁴).

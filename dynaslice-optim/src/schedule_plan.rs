@@ -41,7 +41,7 @@ impl SchedulePlan {
     }
 
     /// The plan from `step` on with a new `length`, continuing this plan's phase.
-    pub(crate) fn replanned(&self, step: u64, length: u64) -> SchedulePlan {
+    pub fn replanned(&self, step: u64, length: u64) -> SchedulePlan {
         SchedulePlan {
             anchor_step: step,
             anchor_phase: self.phase(step),

@@ -10,8 +10,8 @@
 //! plan) are still read. The file's size is checked against the network before it is read. It is written atomically (temporary file, fsync, rename), so a kill
 //! mid-write leaves the previous checkpoint intact.
 
-use super::adam::Adam;
-use super::schedule_plan::SchedulePlan;
+use crate::adam::Adam;
+use crate::schedule_plan::SchedulePlan;
 use anyhow::{bail, Context, Result};
 use dynaslice_output::write_atomically;
 use std::path::Path;
@@ -36,7 +36,7 @@ pub struct Checkpoint {
     /// Optimiser state.
     pub adam: Adam,
     /// The learning-rate schedule planned by a timed run
-    /// ([`crate::trainer::TrainOptions::time_limit`]), once planned.
+    /// (`dynaslice_train::trainer::TrainOptions::time_limit`), once planned.
     pub plan: Option<SchedulePlan>,
 }
 
