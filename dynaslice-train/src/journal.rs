@@ -42,20 +42,11 @@ pub struct LossRow(pub u64, pub [f64; 9]);
 impl LossRow {
     /// The row of step `step` with `terms` and weighted `total`.
     pub fn of(step: u64, t: &LossTerms, total: f64) -> LossRow {
-        LossRow(
-            step,
-            [
-                total,
-                t.surface,
-                t.orientation,
-                t.plane,
-                t.eikonal,
-                t.spurious,
-                t.outside,
-                t.motion,
-                t.between,
-            ],
-        )
+        let mut values = [total; 9];
+        for (slot, (_, value)) in values[1..].iter_mut().zip(t.named()) {
+            *slot = value;
+        }
+        LossRow(step, values)
     }
 
     /// The CSV line (f64 `Display` is the shortest exact form, so [`LossRow::parse`] restores

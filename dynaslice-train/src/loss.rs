@@ -60,6 +60,21 @@ pub struct LossTerms {
 }
 
 impl LossTerms {
+    /// The terms by name, in the loss log's column order (after its total): the one list the
+    /// log, the progress line and Python's figures are made from.
+    pub fn named(&self) -> [(&'static str, f64); 8] {
+        [
+            ("surface", self.surface),
+            ("orientation", self.orientation),
+            ("plane", self.plane),
+            ("eikonal", self.eikonal),
+            ("spurious", self.spurious),
+            ("outside", self.outside),
+            ("motion", self.motion),
+            ("between", self.between),
+        ]
+    }
+
     /// The weighted total (Eq. 5, 10).
     pub fn total(&self, w: &LossWeights) -> f64 {
         self.surface

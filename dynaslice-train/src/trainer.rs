@@ -91,42 +91,26 @@ impl Progress {
     /// The step's figures by name (besides `step` and `steps`): what Python's progress callback
     /// gets.
     pub fn figures(&self) -> [(&'static str, f64); 11] {
-        let t = &self.terms;
-        [
+        let mut out = [("", 0.0); 11];
+        out[..3].copy_from_slice(&[
             ("loss", self.loss),
             ("lr", self.lr.into()),
             ("elapsed", self.elapsed),
-            ("surface", t.surface),
-            ("orientation", t.orientation),
-            ("plane", t.plane),
-            ("eikonal", t.eikonal),
-            ("spurious", t.spurious),
-            ("outside", t.outside),
-            ("motion", t.motion),
-            ("between", t.between),
-        ]
+        ]);
+        out[3..].copy_from_slice(&self.terms.named());
+        out
     }
 }
 
 impl std::fmt::Display for Progress {
-    /// The step's losses for the user: `loss 2.4e-1 (surface …, spurious …) lr 1.0e-4`.
+    /// The step's losses for the user: `loss 2.4e-1 (surface …, between …) lr 1.0e-4`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let t = &self.terms;
-        write!(
-            f,
-            "loss {:.4e} (surface {:.3e}, orientation {:.3e}, plane {:.3e}, eikonal {:.3e}, \
-             spurious {:.3e}, outside {:.3e}, motion {:.3e}, between {:.3e}) lr {:.2e}",
-            self.loss,
-            t.surface,
-            t.orientation,
-            t.plane,
-            t.eikonal,
-            t.spurious,
-            t.outside,
-            t.motion,
-            t.between,
-            self.lr
-        )
+        write!(f, "loss {:.4e} (", self.loss)?;
+        for (i, (name, value)) in self.terms.named().iter().enumerate() {
+            let comma = if i > 0 { ", " } else { "" };
+            write!(f, "{comma}{name} {value:.3e}")?;
+        }
+        write!(f, ") lr {:.2e}", self.lr)
     }
 }
 
@@ -388,6 +372,47 @@ fn moved(old: u64, new: u64, step: u64) -> bool {
 mod tests {
     use super::*;
     use crate::loss::{ContourSample, PlaneKind, PlaneSample};
+
+    /// The progress line, Python's figures and the loss log's row name and order the terms
+    /// alike, from the one list (`LossTerms::named`).
+    #[test]
+    fn progress_line_figures_and_log_row_agree() {
+        let terms = LossTerms {
+            surface: 1.0,
+            orientation: 2.0,
+            plane: 3.0,
+            eikonal: 4.0,
+            spurious: 5.0,
+            outside: 6.0,
+            motion: 7.0,
+            between: 8.0,
+        };
+        let p = Progress {
+            step: 3,
+            steps: 10,
+            terms,
+            loss: 0.25,
+            lr: 1e-3,
+            elapsed: 1.5,
+        };
+        assert_eq!(
+            p.to_string(),
+            "loss 2.5000e-1 (surface 1.000e0, orientation 2.000e0, plane 3.000e0, eikonal \
+             4.000e0, spurious 5.000e0, outside 6.000e0, motion 7.000e0, between 8.000e0) lr \
+             1.00e-3"
+        );
+        let figures = p.figures();
+        assert_eq!(
+            figures[..3],
+            [("loss", 0.25), ("lr", 1e-3f32 as f64), ("elapsed", 1.5)]
+        );
+        assert_eq!(figures[10], ("between", 8.0));
+        let row = crate::journal::LossRow::of(3, &terms, 0.25);
+        assert_eq!(row.1, [0.25, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
+        let header: Vec<&str> = crate::journal::CSV_HEADER.split(',').skip(2).collect();
+        let names: Vec<&str> = terms.named().iter().map(|(n, _)| *n).collect();
+        assert_eq!(header, names, "the log's columns after step and total");
+    }
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 
