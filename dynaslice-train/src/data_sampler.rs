@@ -226,14 +226,15 @@ impl DataSampler {
             (fingerprint ^ e.margin().to_bits()).wrapping_mul(0x100_0000_01b3)
         });
         // So do the samples between neighbouring planes.
-        let fingerprint = index.neighbour_pairs().iter().fold(fingerprint, |h, &n| {
+        let pairs = index.neighbour_pairs();
+        let fingerprint = pairs.iter().fold(fingerprint, |h, &n| {
             (h ^ n as u64).wrapping_mul(0x100_0000_01b3)
         });
         let plane_split = counts.plane_split(&lengths);
         let between_split = plane_split
             .iter()
-            .zip(index.neighbour_pairs())
-            .map(|(&n, pairs)| if pairs > 0 { n / 2 } else { 0 })
+            .zip(&pairs)
+            .map(|(&n, &pairs)| if pairs > 0 { n / 2 } else { 0 })
             .collect();
         DataSampler {
             contour_split: counts.contour_split(&lengths),

@@ -24,8 +24,9 @@
 //! short-axis stack) do not bound a structure between their cuts, and nothing is imposed.
 
 use crate::sampling::SampleRng;
-use crate::spatial_bound::{dot, parallel_spacing};
+use crate::spatial_bound::parallel_spacing;
 use dynaslice_core::Domain;
+use dynaslice_sequence::sequence::dot;
 use dynaslice_sequence::Sequence;
 
 /// Each class's extent in a frame of orthonormal axes, in the network's normalised units.

@@ -14,6 +14,7 @@
 //! and nothing is bounded.
 
 use dynaslice_core::Domain;
+use dynaslice_sequence::sequence::dot;
 use dynaslice_sequence::Sequence;
 
 /// Planes whose unit normals' |cosine| is at least this are parallel (within 0.008°).
@@ -91,11 +92,6 @@ pub fn project(rows: [&mut [f32]; 3], band: &PlaneBand) {
             *wz -= excess * n[2];
         }
     }
-}
-
-/// The dot product of two 3-vectors.
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[cfg(test)]

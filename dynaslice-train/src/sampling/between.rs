@@ -20,13 +20,10 @@
 use super::index::SamplingIndex;
 use super::plane::{near_contour, PlaneBatch, PlaneSampling, PlaneTarget};
 use super::rng::SampleRng;
+use dynaslice_sequence::sequence::dot;
 
 /// Planes closer than this (world units) along their normal are one position.
 const SAME_POSITION: f64 = 1e-6;
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
 
 impl SamplingIndex {
     /// Pairs, per class, every two neighbouring planes of a frame along `normal` (the unit
