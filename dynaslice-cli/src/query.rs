@@ -12,7 +12,8 @@ use std::path::PathBuf;
 #[command(after_help = "\
 Coordinates are in the model's world frame, RAS (NIfTI's: +x toward the patient's right, +y
 anterior, +z superior; docs/data-format.md), in the training input's units (mm for NIfTI, DICOM
-and 3D Slicer inputs). A point read in 3D Slicer, ITK or a DICOM viewer is in LPS:
+and 3D Slicer inputs). A motion model (trained with --motion) also prints its displacement u at
+the point: f(x, t) = g(x + u, t), g the shape network. A point read in 3D Slicer, ITK or a DICOM viewer is in LPS:
 negate its x and y (LPS (10, 20, 30) is RAS (-10, -20, 30)). `dynaslice info` prints the
 model's world bounds.")]
 pub struct Args {
@@ -35,7 +36,7 @@ pub struct Args {
 }
 
 /// Runs `dynaslice query`: prints each class's f, ∇ₓf and ∂f/∂t at the world point and time,
-/// then the Eq. 11 label.
+/// then the Eq. 11 label, and for a motion model the displacement u there.
 pub fn run(args: Args) -> Result<()> {
     let file = ModelFile::open(&args.model)?;
     let model = file.model();
@@ -79,6 +80,16 @@ pub fn run(args: Args) -> Result<()> {
             let class = model.class(l)?;
             outln!("label {l} ({}, source label {})", class.name, class.label)?;
         }
+    }
+    if model.motion().is_some() {
+        // f(x, t) = g(x + u(x, t), t): u carries the point to where the shape network reads it.
+        let u = model.displacement(x, t)?;
+        outln!(
+            "displacement {:.6} {:.6} {:.6} (u: x + u is the point's canonical position, world units)",
+            u[0],
+            u[1],
+            u[2]
+        )?;
     }
     Ok(())
 }

@@ -56,3 +56,37 @@ fn info_and_query_report_the_model() {
         "{err}"
     );
 }
+
+#[test]
+fn query_prints_a_motion_models_displacement_and_no_other_models() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("motion.dsm");
+    let bytes = dynaslice_core::format::ModelWriter::random_motion(&[16, 16], 2, &[8], 7)
+        .try_to_bytes()
+        .unwrap();
+    std::fs::write(&path, &bytes).unwrap();
+    let (ok, out, err) = dynaslice(&["query", path.to_str().unwrap(), "0.2", "-0.1", "0.3", "0.4"]);
+    assert!(ok, "{err}");
+    let aligned = ModelBytes::copy_from(&bytes);
+    let model = aligned.model().unwrap();
+    let u = model.displacement([0.2, -0.1, 0.3], 0.4).unwrap();
+    assert!(u.iter().any(|v| v.abs() > 1e-4), "a moving fixture: {u:?}");
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("displacement"))
+        .expect(&out);
+    let printed: Vec<f32> = line
+        .split_whitespace()
+        .skip(1)
+        .take(3)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    for (p, v) in printed.iter().zip(u) {
+        assert!((p - v).abs() < 1e-5, "{printed:?} vs {u:?}");
+    }
+
+    let still = dir.path().join("still.dsm");
+    std::fs::write(&still, two_organ_model(true)).unwrap();
+    let (ok, out, err) = dynaslice(&["query", still.to_str().unwrap(), "0", "0", "0", "0.4"]);
+    assert!(ok && !out.contains("displacement"), "{err}{out}");
+}
