@@ -72,12 +72,12 @@ pub enum Fallback {
         /// Vertices where it folds.
         vertices: usize,
     },
-    /// The projection onto F = 0 moved a vertex farther than [`MAX_PROJECTION_CELLS`], or did
-    /// not reach the surface (a vanishing gradient included).
+    /// The projection onto F = 0 would move a vertex farther than [`MAX_PROJECTION_CELLS`]
+    /// along its Newton path, or did not reach the surface (a vanishing gradient included).
     Projection {
         /// Vertices that failed.
         vertices: usize,
-        /// The farthest move asked for, in cells.
+        /// The longest Newton path asked for (steps taken plus the next), in cells.
         farthest_cells: f64,
     },
     /// Triangles that agreed with the field's normals at the first time point against them.
@@ -164,10 +164,11 @@ impl Carrier {
         h: f64,
         t0: f32,
     ) -> Carrier {
-        let agreed: Vec<bool> = orientation(&marched.positions, &marched.triangles, &marched.normals)
-            .into_iter()
-            .map(|d| d > 0.0)
-            .collect();
+        let agreed: Vec<bool> =
+            orientation(&marched.positions, &marched.triangles, &marched.normals)
+                .into_iter()
+                .map(|d| d > 0.0)
+                .collect();
         let mut report = CarryReport::default();
         let reference = settle(
             field,
@@ -205,9 +206,9 @@ impl Carrier {
     /// The mesh carried to the time of `field` (the class's clipped field F at that time,
     /// channel `channel`, as marching builds it), `h` the lattice cell: the first time's
     /// triangles, each vertex solved from x + u(x, t) = y and projected onto F = 0, with its
-    /// normal, normal velocity and displacement from the first time. A [`Fallback`] where any
-    /// check fails (the module documentation); the next call then starts from the last time
-    /// that succeeded.
+    /// normal, normal velocity and displacement from the first time; or a [`Fallback`] where
+    /// any check fails (the module documentation), and the next call then starts from the last
+    /// time that succeeded. With what it found and cost, either way.
     pub fn carry<'m>(
         &mut self,
         model: &Model<'m>,
@@ -215,9 +216,22 @@ impl Carrier {
         channel: usize,
         h: f64,
         t: f32,
-    ) -> Result<(Mesh, CarryReport), Fallback> {
+    ) -> (Result<Mesh, Fallback>, CarryReport) {
         let mut report = CarryReport::default();
-        let inverse = self.invert(model, t, h, &mut report)?;
+        let mesh = self.try_carry(model, field, channel, h, t, &mut report);
+        (mesh, report)
+    }
+
+    fn try_carry<'m>(
+        &mut self,
+        model: &Model<'m>,
+        field: &LevelSets<Model<'m>>,
+        channel: usize,
+        h: f64,
+        t: f32,
+        report: &mut CarryReport,
+    ) -> Result<Mesh, Fallback> {
+        let inverse = self.invert(model, t, h, report)?;
         let folded = par_fold_count(model, &inverse, t, h);
         report.displacement_evaluations += 6 * inverse.len() as u64;
         if folded > 0 {
@@ -230,7 +244,7 @@ impl Carrier {
             &self.reference.triangles,
             &self.agreed,
             h,
-            &mut report,
+            report,
         )?;
         mesh.displacement = mesh
             .positions
@@ -239,7 +253,7 @@ impl Carrier {
             .map(|(p, p0)| std::array::from_fn(|a| p[a] - p0[a]))
             .collect();
         self.start = inverse;
-        Ok((mesh, report))
+        Ok(mesh)
     }
 
     /// Solves x + u(x, t) = y for every vertex by the fixed point x ← y − u(x, t), from
@@ -271,7 +285,7 @@ impl Carrier {
                 let reach = x[i].iter().chain(&next).fold(0.0f32, |m, v| m.max(v.abs()));
                 let tolerance = (TOLERANCE_CELLS * h).max(64.0 * f64::from(reach * f32::EPSILON));
                 x[i] = next;
-                if !(step <= tolerance) {
+                if !within(step, tolerance) {
                     still.push(i);
                 }
             }
@@ -336,46 +350,49 @@ fn project<S: Source>(
 ) -> Result<(Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<f32>), Fallback> {
     let mut positions = start.to_vec();
     let surface = SURFACE_CELLS * h;
-    let (mut value, mut grad, mut dfdt);
     let mut step = 0;
-    loop {
-        (value, grad, dfdt) = field.par_jacobians(&positions, channel);
+    let (grad, dfdt) = loop {
+        let (value, grad, dfdt) = field.par_jacobians(&positions, channel);
         report.jacobian_evaluations += positions.len() as u64;
-        let off = |i: usize| f64::from(value[i]).abs() / norm(grad[i]);
-        let done = (0..positions.len()).all(|i| off(i) <= surface);
+        // Per vertex, |F| / ‖∇F‖ (the next Newton step's length) and the path so far plus that
+        // step, in cells. A vertex whose path would pass the limit fails now: the evaluations
+        // left would not bring it back (a shape that changed by several cells sends Newton
+        // far off, which used to cost every remaining step first).
+        let (mut failed, mut farthest, mut worst, mut done) = (0, 0.0f64, 0.0f64, true);
+        for i in 0..positions.len() {
+            let off = f64::from(value[i]).abs() / norm(grad[i]);
+            let reach = distance(positions[i], start[i]) / h + off / h;
+            farthest = farthest.max(reach);
+            let last = step == PROJECTION_STEPS;
+            // A NaN (no gradient, a non-finite value) fails too.
+            if !within(reach, MAX_PROJECTION_CELLS) || (last && !within(off, 10.0 * surface)) {
+                failed += 1;
+            } else {
+                worst = worst.max(off);
+                done &= off <= surface;
+            }
+        }
+        report.farthest_cells = farthest;
+        report.distance = worst;
+        if failed > 0 {
+            return Err(Fallback::Projection {
+                vertices: failed,
+                farthest_cells: farthest,
+            });
+        }
         if done || step == PROJECTION_STEPS {
-            break;
+            break (grad, dfdt);
         }
         step += 1;
         for (i, p) in positions.iter_mut().enumerate() {
             let g = grad[i].map(f64::from);
             let g2 = g.iter().map(|v| v * v).sum::<f64>();
-            if g2 > 0.0 && value[i].is_finite() {
+            if f64::from(value[i]).abs() > surface * g2.sqrt() {
                 let s = f64::from(value[i]) / g2;
                 *p = std::array::from_fn(|a| (f64::from(p[a]) - s * g[a]) as f32);
             }
         }
-    }
-    let (mut failed, mut farthest, mut worst) = (0, 0.0f64, 0.0f64);
-    for i in 0..positions.len() {
-        let moved = distance(positions[i], start[i]) / h;
-        let off = f64::from(value[i]).abs() / norm(grad[i]);
-        farthest = farthest.max(moved);
-        // A NaN (no gradient, a non-finite value) fails too.
-        if !(moved <= MAX_PROJECTION_CELLS && off <= 10.0 * surface) {
-            failed += 1;
-        } else {
-            worst = worst.max(off);
-        }
-    }
-    report.farthest_cells = farthest;
-    report.distance = worst;
-    if failed > 0 {
-        return Err(Fallback::Projection {
-            vertices: failed,
-            farthest_cells: farthest,
-        });
-    }
+    };
     let mut normals = Vec::with_capacity(positions.len());
     let mut normal_velocity = Vec::with_capacity(positions.len());
     // As `vertices::refine` gives a marched mesh's.
@@ -442,7 +459,7 @@ fn par_fold_count(model: &Model, points: &[[f32; 3]], t: f32, h: f64) -> usize {
             let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
                 - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
                 + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-            !(det > 0.0)
+            det.is_nan() || det <= 0.0
         })
         .count()
 }
@@ -469,6 +486,11 @@ fn orientation(positions: &[[f32; 3]], triangles: &[[u32; 3]], normals: &[[f32; 
             n[0] * m[0] + n[1] * m[1] + n[2] * m[2]
         })
         .collect()
+}
+
+/// `value ≤ limit`, false where either is NaN (a failed evaluation fails the check).
+fn within(value: f64, limit: f64) -> bool {
+    value <= limit
 }
 
 fn distance(a: [f32; 3], b: [f32; 3]) -> f64 {

@@ -3,7 +3,7 @@
 //! [`MeshFiles`], with what each step cost and made. A motion model's series is the first
 //! time's meshes carried through the others (`carried.rs`), marched again where that fails.
 
-use crate::carried::{CarryReport, Carrier, Fallback};
+use crate::carried::{Carrier, CarryReport, Fallback};
 use crate::field::LevelSets;
 use crate::io::MeshFiles;
 use crate::{extract, Extraction, Mesh, Options, Sampling, Stats, Surfaces};
@@ -313,7 +313,15 @@ fn write_carried(
     for (c, (mesh, &k)) in first.meshes.into_iter().zip(classes).enumerate() {
         total.displacement_evaluations += mesh.positions.len() as u64;
         let carrier = Carrier::new(model, mesh, &field, c, lattice.h, t0);
-        stage(model, files, (0, t0), k, colors[k], &carrier.reference(), &mut step)?;
+        stage(
+            model,
+            files,
+            (0, t0),
+            k,
+            colors[k],
+            &carrier.reference(),
+            &mut step,
+        )?;
         carriers.push(carrier);
     }
     step(Meshed::Done);
@@ -326,21 +334,23 @@ fn write_carried(
             options.surfaces,
             lattice.clip_box(),
         );
-        let outcomes: Vec<_> = carriers
+        let (outcomes, reports): (Vec<_>, Vec<_>) = carriers
             .iter_mut()
             .enumerate()
             .map(|(c, carrier)| carrier.carry(model, &field, c, lattice.h, t))
-            .collect();
-        let reports: Vec<CarryReport> = outcomes
-            .iter()
-            .filter_map(|o| o.as_ref().ok().map(|(_, r)| *r))
-            .collect();
+            .unzip();
         for r in &reports {
             total.displacement_evaluations += r.displacement_evaluations;
             total.jacobian_evaluations += r.jacobian_evaluations;
         }
+        let carried: Vec<CarryReport> = outcomes
+            .iter()
+            .zip(&reports)
+            .filter(|(o, _)| o.is_ok())
+            .map(|(_, r)| *r)
+            .collect();
         step(Meshed::Carried {
-            cost: carried_cost(t, &reports, classes.len(), start.elapsed().as_secs_f64()),
+            cost: carried_cost(t, &carried, classes.len(), start.elapsed().as_secs_f64()),
         });
         let refused: Vec<usize> = (0..classes.len())
             .filter(|&c| outcomes[c].is_err())
@@ -373,10 +383,18 @@ fn write_carried(
         let mut marched = marched.into_iter();
         for (c, outcome) in outcomes.into_iter().enumerate() {
             let mesh = match outcome {
-                Ok((mesh, _)) => mesh,
+                Ok(mesh) => mesh,
                 Err(_) => marched.next().expect("one marched mesh per refused class"),
             };
-            stage(model, files, (i, t), classes[c], colors[classes[c]], &mesh, &mut step)?;
+            stage(
+                model,
+                files,
+                (i, t),
+                classes[c],
+                colors[classes[c]],
+                &mesh,
+                &mut step,
+            )?;
         }
         step(Meshed::Done);
     }
@@ -387,12 +405,17 @@ fn write_carried(
 /// iterations, the farthest projection and the largest distance left from the surface.
 fn carried_cost(t: f32, reports: &[CarryReport], classes: usize, seconds: f64) -> String {
     let most = |f: fn(&CarryReport) -> f64| reports.iter().map(f).fold(0.0, f64::max);
+    let how = match reports.is_empty() {
+        true => String::new(),
+        false => format!(
+            " (fixed point ≤ {} iterations, projection ≤ {:.3} cells, |F|/‖∇F‖ ≤ {:.2e} after)",
+            most(|r| f64::from(r.iterations)),
+            most(|r| r.farthest_cells),
+            most(|r| r.distance),
+        ),
+    };
     format!(
-        "t = {t}: carried {} of {classes} classes from the first time (fixed point ≤ {} \
-         iterations, projection ≤ {:.3} cells, |F|/‖∇F‖ ≤ {:.2e} after), {seconds:.2} s",
-        reports.len(),
-        most(|r| f64::from(r.iterations)),
-        most(|r| r.farthest_cells),
-        most(|r| r.distance),
+        "t = {t}: carried {} of {classes} classes from the first time{how}, {seconds:.2} s",
+        reports.len()
     )
 }

@@ -11,7 +11,7 @@ use dynaslice_core::format::{ModelWriter, MotionWriter};
 use dynaslice_core::Model;
 use dynaslice_mesh::carried::{Carrier, Fallback};
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
-use dynaslice_mesh::{extract, write_meshes, LevelSets, Lattice, Mesh, Meshed, Options, Surfaces};
+use dynaslice_mesh::{extract, write_meshes, Lattice, LevelSets, Mesh, Meshed, Options, Surfaces};
 use dynaslice_test_support::python::run_python;
 use dynaslice_test_support::spheres::{writer_in, Sphere, SPHERES_DOMAIN};
 
@@ -94,15 +94,14 @@ fn marched(model: &Model, t: f32) -> (Mesh, Lattice) {
 /// The first time's mesh carried to each later time.
 fn carried(model: &Model) -> Vec<Result<Mesh, Fallback>> {
     let (reference, lattice) = marched(model, TIMES[0]);
-    let field =
-        |t| LevelSets::new(model, t, vec![0], Surfaces::Overlapping, lattice.clip_box());
+    let field = |t| LevelSets::new(model, t, vec![0], Surfaces::Overlapping, lattice.clip_box());
     let mut carrier = Carrier::new(model, reference, &field(TIMES[0]), 0, lattice.h, TIMES[0]);
     std::iter::once(Ok(carrier.reference()))
-        .chain(TIMES[1..].iter().map(|&t| {
-            carrier
-                .carry(model, &field(t), 0, lattice.h, t)
-                .map(|(mesh, _)| mesh)
-        }))
+        .chain(
+            TIMES[1..]
+                .iter()
+                .map(|&t| carrier.carry(model, &field(t), 0, lattice.h, t).0),
+        )
         .collect()
 }
 
@@ -113,7 +112,11 @@ fn off_surface(model: &Model, mesh: &Mesh, t: f32) -> f64 {
         .iter()
         .map(|&p| {
             model.eval_grad(p, t, &mut f, &mut g).unwrap();
-            let n = g[0].iter().map(|v| f64::from(*v).powi(2)).sum::<f64>().sqrt();
+            let n = g[0]
+                .iter()
+                .map(|v| f64::from(*v).powi(2))
+                .sum::<f64>()
+                .sqrt();
             f64::from(f[0]).abs() / n
         })
         .fold(0.0, f64::max)
@@ -220,7 +223,10 @@ fn a_growing_shape_is_projected_onto_its_surface_at_each_time() {
             let len = n.iter().map(|v| v * v).sum::<f64>().sqrt();
             let rest = [f64::from(d[0]) - shift, f64::from(d[1]), f64::from(d[2])];
             let radial: f64 = (0..3).map(|a| rest[a] * n[a] / len).sum();
-            assert!((radial - growth).abs() < 0.02, "t = {t}: {radial} vs {growth}");
+            assert!(
+                (radial - growth).abs() < 0.02,
+                "t = {t}: {radial} vs {growth}"
+            );
         }
         if t > 1.0 {
             assert!(growth > 0.1, "{growth}");
@@ -264,13 +270,21 @@ fn a_shape_that_outgrows_the_motion_or_a_folding_motion_is_refused() {
 fn write_series(model: &Model, dir: &std::path::Path, format: Format, space: Space) -> Vec<String> {
     let mut files = MeshFiles::series(dir, format, space).unwrap();
     let mut lines = Vec::new();
-    write_meshes(model, &TIMES, &[0], &[[200, 30, 40]], &options(), &mut files, |step| {
-        if let Meshed::Fallback { .. } = step {
-            lines.push(format!("FALLBACK {}", step.line().unwrap()));
-        } else if let Some(line) = step.line() {
-            lines.push(line);
-        }
-    })
+    write_meshes(
+        model,
+        &TIMES,
+        &[0],
+        &[[200, 30, 40]],
+        &options(),
+        &mut files,
+        |step| {
+            if let Meshed::Fallback { .. } = step {
+                lines.push(format!("FALLBACK {}", step.line().unwrap()));
+            } else if let Some(line) = step.line() {
+                lines.push(line);
+            }
+        },
+    )
     .unwrap();
     files.finish().unwrap();
     lines
@@ -283,9 +297,15 @@ fn a_series_writes_the_displacement_vtk_and_trimesh_read_back() {
     let model = Model::from_bytes(&bytes).unwrap();
     let lps = dir.path().join("lps");
     let lines = write_series(&model, &lps, Format::Vtp, Space::Lps);
-    assert!(!lines.iter().any(|l| l.starts_with("FALLBACK")), "{lines:#?}");
+    assert!(
+        !lines.iter().any(|l| l.starts_with("FALLBACK")),
+        "{lines:#?}"
+    );
     assert_eq!(
-        lines.iter().filter(|l| l.contains("carried 1 of 1 classes")).count(),
+        lines
+            .iter()
+            .filter(|l| l.contains("carried 1 of 1 classes"))
+            .count(),
         3,
         "{lines:#?}"
     );
@@ -296,7 +316,11 @@ fn a_series_writes_the_displacement_vtk_and_trimesh_read_back() {
     let lines = write_series(&growing, &marched_dir, Format::Vtp, Space::Ras);
     let fallbacks: Vec<&String> = lines.iter().filter(|l| l.starts_with("FALLBACK")).collect();
     assert_eq!(fallbacks.len(), 2, "{lines:#?}");
-    assert!(fallbacks[0].contains("not carried to t = 1.2"), "{}", fallbacks[0]);
+    assert!(
+        fallbacks[0].contains("not carried to t = 1.2"),
+        "{}",
+        fallbacks[0]
+    );
     // A model without motion: no displacement anywhere.
     let bytes = sphere(0.01).to_bytes();
     let still = Model::from_bytes(&bytes).unwrap();
@@ -358,11 +382,19 @@ for path in sorted(glob.glob(os.path.join(sys.argv[4], '*.ply'))):
     let Some(out) = run_python(
         &["trimesh", "vtk", "numpy"],
         script,
-        &[lps.as_path(), marched_dir.as_path(), plain.as_path(), ply.as_path()],
+        &[
+            lps.as_path(),
+            marched_dir.as_path(),
+            plain.as_path(),
+            ply.as_path(),
+        ],
     ) else {
         return;
     };
-    let rows: Vec<Vec<&str>> = out.lines().map(|l| l.split_whitespace().collect()).collect();
+    let rows: Vec<Vec<&str>> = out
+        .lines()
+        .map(|l| l.split_whitespace().collect())
+        .collect();
     assert_eq!(rows.len(), 4 * TIMES.len(), "{out}");
     for row in &rows {
         assert_eq!(row[2..4], ["watertight", "True"], "{out}");

@@ -174,7 +174,11 @@ fn in_space(mesh: &Mesh, space: Space) -> Result<Mesh> {
         normals: mesh.normals.iter().map(|&v| space.from_ras(v)).collect(),
         normal_velocity: mesh.normal_velocity.clone(),
         // A displacement is a vector: the frame's rotation applies to it as to normals.
-        displacement: mesh.displacement.iter().map(|&v| space.from_ras(v)).collect(),
+        displacement: mesh
+            .displacement
+            .iter()
+            .map(|&v| space.from_ras(v))
+            .collect(),
     })
 }
 

@@ -180,7 +180,10 @@ mod tests {
         let text = String::from_utf8_lossy(&bytes);
         assert!(text.contains("type=\"PolyData\""), "{text}");
         assert!(text.contains("Name=\"normal_velocity\"") && text.contains("Name=\"Normals\""));
-        assert!(!text.contains("displacement"), "a marched mesh has none: {text}");
+        assert!(
+            !text.contains("displacement"),
+            "a marched mesh has none: {text}"
+        );
         assert!(text.contains("Name=\"SPACE\" NumberOfTuples=\"1\" format=\"ascii\">82 65 83 0<"));
         assert!(
             text.contains("Name=\"ClassName\" NumberOfTuples=\"1\" format=\"ascii\">108 118 0<")
@@ -193,8 +196,8 @@ mod tests {
     fn a_displacement_is_the_active_vectors() {
         let mut mesh = tetrahedron();
         mesh.displacement = vec![[1.0, 2.0, 3.0]; 4];
-        let text = String::from_utf8_lossy(&encode(&mesh, &MeshInfo::new("x", Space::Ras)))
-            .into_owned();
+        let text =
+            String::from_utf8_lossy(&encode(&mesh, &MeshInfo::new("x", Space::Ras))).into_owned();
         assert!(text.contains(" Vectors=\"displacement\">"), "{text}");
         assert!(
             text.contains("type=\"Float32\" Name=\"displacement\" NumberOfComponents=\"3\""),
