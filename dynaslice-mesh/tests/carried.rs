@@ -13,32 +13,33 @@ use dynaslice_mesh::carried::{Carrier, Fallback};
 use dynaslice_mesh::io::{Format, MeshFiles, Space};
 use dynaslice_mesh::{extract, write_meshes, Lattice, LevelSets, Mesh, Meshed, Options, Surfaces};
 use dynaslice_test_support::python::run_python;
-use dynaslice_test_support::spheres::{writer_in, Sphere, SPHERES_DOMAIN};
+use dynaslice_test_support::spheres::{
+    translated, translation_x, writer_in, Sphere, SPHERES_DOMAIN,
+};
 
-/// The motion networks' one sine layer's frequency (normalised units).
+/// The folding motion's sine layer frequency (normalised units).
 const EPS: f64 = 0.5;
 /// World times of the series (the domain's times are 0..2 s, t_n = t / 2).
 const TIMES: [f32; 4] = [0.0, 0.5, 1.2, 2.0];
+/// Lattice cells along the longest axis: a cell of 40 / 48 = 0.83 mm.
+const RESOLUTION: u32 = 48;
 /// How far from its zero set the spheres' field can put a point by f32 rounding alone (mm):
 /// f is a difference of cosines near 1 divided by ε² = 0.01 (test-support's `spheres`), so its
 /// rounding is about σ·3·2⁻²⁴/(ε²R) ≈ 1.2·10⁻³ mm; 2.7·10⁻³ measured after the projection.
 const NOISE: f64 = 5e-3;
-/// Lattice cells along the longest axis: a cell of 40 / 48 = 0.83 mm.
-const RESOLUTION: u32 = 48;
 
 /// The translation along x of [`translating`], normalised: the sphere's centre moves by
-/// A·sin(ε t_n)/ε (≈ A t_n).
+/// A·sin(ε t_n)/ε (≈ A t_n; test-support's `translated`).
 const A: f64 = 0.2;
 
 /// The sphere of radius 0.3 (6 mm) at normalised (0.1, −0.05, 0.02), growing at `rate`
-/// (test-support's quadratic field) and carried along x by u(x, t) = (−A sin(ε t_n)/ε, 0, 0): one
-/// sine unit sin(ε t_n), its output weight −A/ε on u_x.
+/// (test-support's quadratic field) and carried along x by test-support's `translated` motion.
 fn translating(rate: f64) -> ModelWriter {
-    let mut w = sphere(rate);
-    let unit = [0.0, 0.0, 0.0, EPS, 0.0]; // x, y, z, t frequencies, then the phase
-    let output = [-A / EPS, 0.0, 0.0, 0.0, 0.0, 0.0]; // u_x, u_y, u_z weights, then biases
-    w.motion = Some(motion(vec![1], unit.iter().chain(&output)));
-    w
+    translated(&[ball(rate)], &[("ball", 4)], A)
+}
+
+fn ball(rate: f64) -> Sphere {
+    Sphere::new([0.1, -0.05, 0.02], 0.3, rate)
 }
 
 /// The same sphere carried by u_x = k sin(ε x_n) sin(ε t_n) / ε² (two units: cos(ε(x − t)) −
@@ -56,11 +57,7 @@ fn folding(k: f64) -> ModelWriter {
 }
 
 fn sphere(rate: f64) -> ModelWriter {
-    writer_in(
-        SPHERES_DOMAIN,
-        &[Sphere::new([0.1, -0.05, 0.02], 0.3, rate)],
-        &[("ball", 4)],
-    )
+    writer_in(SPHERES_DOMAIN, &[ball(rate)], &[("ball", 4)])
 }
 
 fn motion<'a>(widths: Vec<u32>, params: impl Iterator<Item = &'a f64>) -> MotionWriter {
@@ -73,9 +70,7 @@ fn motion<'a>(widths: Vec<u32>, params: impl Iterator<Item = &'a f64>) -> Motion
 
 /// World x of the translating sphere's centre at world time t.
 fn centre_x(t: f32) -> f64 {
-    let tn = f64::from(t) / 2.0;
-    let d = SPHERES_DOMAIN;
-    f64::from(d.center[0]) + f64::from(d.scale[0]) * (0.1 + A * (EPS * tn).sin() / EPS)
+    ball(0.0).world_centre()[0] + translation_x(A, f64::from(t))
 }
 
 fn options() -> Options {
@@ -187,7 +182,7 @@ fn a_growing_shape_is_projected_onto_its_surface_at_each_time() {
     // the end, which the motion does not carry and the projection makes up.
     let bytes = translating(0.01).to_bytes();
     let model = Model::from_bytes(&bytes).unwrap();
-    let sphere = Sphere::new([0.1, -0.05, 0.02], 0.3, 0.01);
+    let sphere = ball(0.01);
     let series = carried(&model);
     let c = sphere.world_centre();
     for (mesh, &t) in series.iter().zip(&TIMES) {
