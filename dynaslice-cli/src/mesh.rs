@@ -33,7 +33,12 @@ A static model (trained on one timestep) needs no --time, and is meshed once wha
 --times asks (its surfaces are the same at every time; a note says so): with --times, OUT gets
 one file per class at the model's time.
 PLY and VTP vertices carry the class colour (the training input's, else the palette's): PLY
-red/green/blue, VTP point data Colors. OBJ and STL carry none.")]
+red/green/blue, VTP point data Colors. OBJ and STL carry none.
+A motion model's --times series is the first time's mesh of each class carried through the
+others (the same vertices and triangles at every time), each vertex with its displacement from
+the first time (VTP point data displacement, PLY dx/dy/dz); a class that cannot be carried to
+a time (the motion folds there, or the shape changed more than the motion carries) is marched
+there instead, without a displacement, and a line says so (docs/meshing.md).")]
 pub struct Args {
     /// Model file (.dsm).
     model: PathBuf,

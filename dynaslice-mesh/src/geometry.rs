@@ -16,6 +16,10 @@ pub struct Mesh {
     pub normals: Vec<[f32; 3]>,
     /// Normal velocity v_n = −(∂f/∂t)/‖∇ₓf‖ per vertex (positive: moving outward), or empty.
     pub normal_velocity: Vec<f32>,
+    /// Per vertex, its position minus its position in the first mesh of a series whose
+    /// vertices correspond (a motion model's carried meshes, `carried.rs`), or empty where the
+    /// vertices correspond to no other mesh (a marched mesh).
+    pub displacement: Vec<[f32; 3]>,
 }
 
 /// How far a mesh is from a closed, consistently oriented 2-manifold.

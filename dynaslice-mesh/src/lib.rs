@@ -11,7 +11,9 @@
 //!    normal velocity.
 //! 5. [`geometry`]: the [`Mesh`] type, volume, area, topology checks; [`io`]: file formats.
 //!
-//! [`model_meshes`] is the whole job of a model: its classes at several times, written to files.
+//! [`model_meshes`] is the whole job of a model: its classes at several times, written to files;
+//! for a motion model, [`carried`] carries the first time's meshes through the series (the same
+//! vertices and triangles at every time, with each vertex's displacement).
 //!
 //! [`planar`] contours the same fields on a plane (closed polygons, for RT Structure Sets).
 
@@ -19,6 +21,7 @@
 
 #[cfg(test)]
 mod analytic;
+pub mod carried;
 pub mod field;
 pub mod geometry;
 pub mod io;
@@ -84,6 +87,8 @@ pub struct Stats {
     pub dense_evaluations: u64,
     /// Cells visited by the polygoniser.
     pub cells: u64,
+    /// Motion-network evaluations u(x, t) of a motion model's carried series (`carried.rs`).
+    pub displacement_evaluations: u64,
 }
 
 /// The meshes of one extraction, in the order of the requested classes.
@@ -139,6 +144,7 @@ pub fn extract<S: Source>(
                 triangles: polygons.triangles,
                 normals: refined.normals,
                 normal_velocity: refined.normal_velocity,
+                displacement: Vec::new(),
             }
         })
         .collect();
@@ -150,6 +156,7 @@ pub fn extract<S: Source>(
             jacobian_evaluations,
             dense_evaluations: lattice.vertex_count(),
             cells: samples.cells.len() as u64,
+            displacement_evaluations: 0,
         },
     })
 }

@@ -1,7 +1,10 @@
 //! The whole meshing job of a model (`dynaslice mesh`; `picture --3d` shares its extraction):
 //! the surfaces of some classes at each of some times, over the model's bounds, written to
-//! [`MeshFiles`], with what each step cost and made.
+//! [`MeshFiles`], with what each step cost and made. A motion model's series is the first
+//! time's meshes carried through the others (`carried.rs`), marched again where that fails.
 
+use crate::carried::{Carrier, CarryReport, Fallback};
+use crate::field::LevelSets;
 use crate::io::MeshFiles;
 use crate::{extract, Extraction, Mesh, Options, Sampling, Stats, Surfaces};
 use anyhow::Result;
@@ -49,6 +52,7 @@ impl std::ops::AddAssign for Stats {
         self.jacobian_evaluations += other.jacobian_evaluations;
         self.dense_evaluations += other.dense_evaluations;
         self.cells += other.cells;
+        self.displacement_evaluations += other.displacement_evaluations;
     }
 }
 
@@ -89,7 +93,16 @@ impl std::fmt::Display for Stats {
             self.jacobian_evaluations,
             self.dense_evaluations,
             self.saving()
-        )
+        )?;
+        // Only a motion model's carried series evaluates the motion alone.
+        if self.displacement_evaluations > 0 {
+            write!(
+                f,
+                ", {} displacement evaluations",
+                self.displacement_evaluations
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -146,6 +159,23 @@ pub enum Meshed<'a> {
         /// Where it goes.
         path: &'a Path,
     },
+    /// The meshes of a motion model's first time carried to a later one (`carried.rs`).
+    Carried {
+        /// One line on how it went and what it cost.
+        cost: String,
+    },
+    /// One class's carried mesh was refused at that time; it is marched instead, with no
+    /// `displacement` (its vertices correspond to no other time's).
+    Fallback {
+        /// The class (0-based channel).
+        class: usize,
+        /// Its name.
+        name: &'a str,
+        /// The time.
+        time: f32,
+        /// Why.
+        reason: Fallback,
+    },
     /// Every class at that time is staged.
     Done,
 }
@@ -155,7 +185,17 @@ impl Meshed<'_> {
     /// name, [`Mesh::summary`], where it goes); `None` at the end of a time.
     pub fn line(&self) -> Option<String> {
         match self {
-            Meshed::Extracted { cost } => Some(cost.clone()),
+            Meshed::Extracted { cost } | Meshed::Carried { cost } => Some(cost.clone()),
+            Meshed::Fallback {
+                class,
+                name,
+                time,
+                reason,
+            } => Some(format!(
+                "  class {} ({name}): not carried to t = {time}: {reason}; marched instead \
+                 (no displacement array at this time)",
+                class + 1
+            )),
             Meshed::Staged {
                 class,
                 name,
@@ -192,6 +232,12 @@ pub fn planned_paths(
 /// stages each mesh in `files` with its class's name, label and colour (`colors`, one per
 /// class of the model); `step` hears of each extraction and mesh. Returns the summed cost.
 /// Nothing is in place until [`MeshFiles::finish`].
+///
+/// For a motion model and more than one time, the first time is marched and its meshes are
+/// carried through the others ([`Carrier`]): one vertex set and one triangle list per class
+/// at every time, each vertex with its `displacement` from the first time. A class whose
+/// carried mesh is refused at a time ([`Fallback`]) is marched there instead, without a
+/// displacement. A model without motion marches every time.
 pub fn write_meshes(
     model: &Model,
     times: &[f32],
@@ -201,6 +247,9 @@ pub fn write_meshes(
     files: &mut MeshFiles,
     mut step: impl FnMut(Meshed),
 ) -> Result<Stats> {
+    if model.motion().is_some() && times.len() > 1 {
+        return write_carried(model, times, classes, colors, options, files, step);
+    }
     let mut total = Stats::default();
     for (i, &t) in times.iter().enumerate() {
         let extraction = surfaces_at(model, t, classes, options, |cost| {
@@ -208,17 +257,165 @@ pub fn write_meshes(
         })?;
         total += extraction.stats;
         for (mesh, &k) in extraction.meshes.iter().zip(classes) {
-            let class = model.class(k as u32 + 1)?;
-            let path = files.path(i, k, class.name);
-            step(Meshed::Staged {
-                class: k,
-                name: class.name,
-                mesh,
-                path: &path,
-            });
-            files.write(i, t, k, class, colors[k], mesh)?;
+            stage(model, files, (i, t), k, colors[k], mesh, &mut step)?;
         }
         step(Meshed::Done);
     }
     Ok(total)
+}
+
+/// Stages `mesh` of class `k` at the `i`-th time, world time `t`, telling `step`.
+fn stage(
+    model: &Model,
+    files: &mut MeshFiles,
+    (i, t): (usize, f32),
+    k: usize,
+    color: [u8; 3],
+    mesh: &Mesh,
+    step: &mut impl FnMut(Meshed),
+) -> Result<()> {
+    let class = model.class(k as u32 + 1)?;
+    let path = files.path(i, k, class.name);
+    step(Meshed::Staged {
+        class: k,
+        name: class.name,
+        mesh,
+        path: &path,
+    });
+    files.write(i, t, k, class, color, mesh)
+}
+
+/// [`write_meshes`] of a motion model over several times: the first time marched, the others
+/// carried, marched again per class where carrying is refused.
+fn write_carried(
+    model: &Model,
+    times: &[f32],
+    classes: &[usize],
+    colors: &[[u8; 3]],
+    options: &Options,
+    files: &mut MeshFiles,
+    mut step: impl FnMut(Meshed),
+) -> Result<Stats> {
+    let t0 = times[0];
+    let first = surfaces_at(model, t0, classes, options, |cost| {
+        step(Meshed::Extracted { cost })
+    })?;
+    let mut total = first.stats;
+    let lattice = first.lattice;
+    let mut carriers = Vec::with_capacity(classes.len());
+    let field = LevelSets::new(
+        model,
+        t0,
+        classes.to_vec(),
+        options.surfaces,
+        lattice.clip_box(),
+    );
+    for (c, (mesh, &k)) in first.meshes.into_iter().zip(classes).enumerate() {
+        total.displacement_evaluations += mesh.positions.len() as u64;
+        let carrier = Carrier::new(model, mesh, &field, c, lattice.h, t0);
+        stage(
+            model,
+            files,
+            (0, t0),
+            k,
+            colors[k],
+            &carrier.reference(),
+            &mut step,
+        )?;
+        carriers.push(carrier);
+    }
+    step(Meshed::Done);
+    for (i, &t) in times.iter().enumerate().skip(1) {
+        let start = Instant::now();
+        let field = LevelSets::new(
+            model,
+            t,
+            classes.to_vec(),
+            options.surfaces,
+            lattice.clip_box(),
+        );
+        let (outcomes, reports): (Vec<_>, Vec<_>) = carriers
+            .iter_mut()
+            .enumerate()
+            .map(|(c, carrier)| carrier.carry(model, &field, c, lattice.h, t))
+            .unzip();
+        for r in &reports {
+            total.displacement_evaluations += r.displacement_evaluations;
+            total.jacobian_evaluations += r.jacobian_evaluations;
+        }
+        let carried: Vec<CarryReport> = outcomes
+            .iter()
+            .zip(&reports)
+            .filter(|(o, _)| o.is_ok())
+            .map(|(_, r)| *r)
+            .collect();
+        step(Meshed::Carried {
+            cost: carried_cost(t, &carried, classes.len(), start.elapsed().as_secs_f64()),
+        });
+        let refused: Vec<usize> = (0..classes.len())
+            .filter(|&c| outcomes[c].is_err())
+            .collect();
+        for &c in &refused {
+            if let Err(reason) = outcomes[c] {
+                let name = model.class(classes[c] as u32 + 1)?.name;
+                step(Meshed::Fallback {
+                    class: classes[c],
+                    name,
+                    time: t,
+                    reason,
+                });
+            }
+        }
+        let marched = match refused.is_empty() {
+            true => {
+                total.dense_evaluations += lattice.vertex_count();
+                Vec::new()
+            }
+            false => {
+                let channels: Vec<usize> = refused.iter().map(|&c| classes[c]).collect();
+                let extraction = surfaces_at(model, t, &channels, options, |cost| {
+                    step(Meshed::Extracted { cost })
+                })?;
+                total += extraction.stats;
+                extraction.meshes
+            }
+        };
+        let mut marched = marched.into_iter();
+        for (c, outcome) in outcomes.into_iter().enumerate() {
+            let mesh = match outcome {
+                Ok(mesh) => mesh,
+                Err(_) => marched.next().expect("one marched mesh per refused class"),
+            };
+            stage(
+                model,
+                files,
+                (i, t),
+                classes[c],
+                colors[classes[c]],
+                &mesh,
+                &mut step,
+            )?;
+        }
+        step(Meshed::Done);
+    }
+    Ok(total)
+}
+
+/// The log line of one carried time: how many classes were carried, the fixed point's
+/// iterations, the farthest projection and the largest distance left from the surface.
+fn carried_cost(t: f32, reports: &[CarryReport], classes: usize, seconds: f64) -> String {
+    let most = |f: fn(&CarryReport) -> f64| reports.iter().map(f).fold(0.0, f64::max);
+    let how = match reports.is_empty() {
+        true => String::new(),
+        false => format!(
+            " (fixed point ≤ {} iterations, projection ≤ {:.3} cells, |F|/‖∇F‖ ≤ {:.2e} after)",
+            most(|r| f64::from(r.iterations)),
+            most(|r| r.farthest_cells),
+            most(|r| r.distance),
+        ),
+    };
+    format!(
+        "t = {t}: carried {} of {classes} classes from the first time{how}, {seconds:.2} s",
+        reports.len()
+    )
 }

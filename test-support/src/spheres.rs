@@ -9,7 +9,7 @@
 //! the signed distance to first order at the surface. ε = 0.1 keeps the x² term above f32
 //! rounding of cos(εx) ≈ 1; ε' = 0.01 since sin(ε'x) is small and rounds relative to itself.
 
-use dynaslice_core::format::{ModelWriter, WeightType};
+use dynaslice_core::format::{ModelWriter, MotionWriter, WeightType};
 use dynaslice_core::Domain;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -141,6 +141,37 @@ pub fn writer_in(domain: Domain, spheres: &[Sphere], classes: &[(&str, i32)]) ->
         weight_type: WeightType::F32,
         motion: None,
     }
+}
+
+/// The frequency of [`translated`]'s one motion unit, sin(ε t_n).
+pub const TRANSLATION_EPS: f64 = 0.5;
+
+/// A motion model (file version 2): [`writer_in`]'s spheres in [`SPHERES_DOMAIN`] carried along
+/// x by the motion network u(x, t) = (−a·sin(ε t_n)/ε, 0, 0) (normalised; ε =
+/// [`TRANSLATION_EPS`]), one sine unit sin(ε t_n) with output weight −a/ε on u_x. Every sphere's
+/// centre then moves along x by a·sin(ε t_n)/ε ≈ a·t_n normalised, [`translation_x`] in world
+/// units, while it grows at its own rate: a rigid motion with a known displacement, for the
+/// meshes carried through a series.
+pub fn translated(spheres: &[Sphere], classes: &[(&str, i32)], a: f64) -> ModelWriter {
+    let mut w = writer_in(SPHERES_DOMAIN, spheres, classes);
+    // First layer Wᵀ (rows x, y, z, t of the one unit), its phase; then the output layer's
+    // Wᵀ (one row of u_x, u_y, u_z) and biases.
+    let params = [0.0, 0.0, 0.0, TRANSLATION_EPS, 0.0];
+    let output = [-a / TRANSLATION_EPS, 0.0, 0.0, 0.0, 0.0, 0.0];
+    w.motion = Some(MotionWriter {
+        widths: vec![1],
+        omega_t_max: 1.0,
+        params: params.iter().chain(&output).map(|&v| v as f32).collect(),
+    });
+    w
+}
+
+/// How far (world units, along +x) [`translated`]'s motion has carried every sphere at world
+/// time `t` from where it is at time 0.
+pub fn translation_x(a: f64, t: f64) -> f64 {
+    let d = SPHERES_DOMAIN;
+    let tn = (t - f64::from(d.time_origin)) / f64::from(d.time_span);
+    f64::from(d.scale[0]) * a * (TRANSLATION_EPS * tn).sin() / TRANSLATION_EPS
 }
 
 /// Three static spheres of `scale` times `radii`, in world coordinates (the identity domain):

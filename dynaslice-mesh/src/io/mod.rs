@@ -1,18 +1,18 @@
 //! Mesh file formats, one file each. Every writer builds the file in memory and writes it
 //! atomically (temporary file, fsync, rename), so an interrupted run leaves no partial mesh.
 //!
-//! | format | geometry | vertex normals | `normal_velocity` | class colour | coordinate frame tag |
-//! |--------|----------|----------------|-------------------|--------------|----------------------|
-//! | PLY (binary little-endian) | indexed | `nx ny nz` | `normal_velocity` float property | `red green blue` uchar properties | `comment SPACE=…` |
-//! | OBJ | indexed | `vn` | — (no per-vertex scalars in OBJ) | — | `# … SPACE=…` first comment |
-//! | STL (binary) | triangle soup (the format has no indices) | facet normals only | — | — | `SPACE=…` in the 80-byte header |
-//! | VTP (VTK XML PolyData) | indexed | point data `Normals` | point data `normal_velocity` | point data `Colors` (UInt8, 3 components) | field data string array `SPACE` |
+//! | format | geometry | vertex normals | `normal_velocity` | `displacement` (a carried series) | class colour | coordinate frame tag |
+//! |--------|----------|----------------|-------------------|-------------------|--------------|----------------------|
+//! | PLY (binary little-endian) | indexed | `nx ny nz` | `normal_velocity` float property | `dx dy dz` float properties | `red green blue` uchar properties | `comment SPACE=…` |
+//! | OBJ | indexed | `vn` | — (no per-vertex scalars in OBJ) | — | — | `# … SPACE=…` first comment |
+//! | STL (binary) | triangle soup (the format has no indices) | facet normals only | — | — | — | `SPACE=…` in the 80-byte header |
+//! | VTP (VTK XML PolyData) | indexed | point data `Normals` | point data `normal_velocity` | point data `displacement` (the active vectors) | point data `Colors` (UInt8, 3 components) | field data string array `SPACE` |
 //!
 //! Meshes are computed in our world frame, RAS (NIfTI's: +x right, +y anterior, +z superior).
-//! Every writer converts positions and normals into the [`Space`] asked for and says which in
-//! the file, the way 3D Slicer reads it (`vtkMRMLModelStorageNode`: a `SPACE=RAS` / `SPACE=LPS`
-//! substring in the PLY comments, the OBJ's leading comment or the STL header; a `SPACE` string
-//! array in a VTP's field data). VTP files also carry the class name, label value and time as
+//! Every writer converts positions, normals and displacements into the [`Space`] asked for and
+//! says which in the file, the way 3D Slicer reads it (`vtkMRMLModelStorageNode`: a `SPACE=RAS`
+//! / `SPACE=LPS` substring in the PLY comments, the OBJ's leading comment or the STL header; a
+//! `SPACE` string array in a VTP's field data). VTP files also carry the class name, label value and time as
 //! field data (`ClassName`, `Label`, `TimeValue`), which ParaView shows.
 
 mod files;
@@ -156,6 +156,11 @@ fn in_space(mesh: &Mesh, space: Space) -> Result<Mesh> {
         "{} normal velocities for {n} vertices",
         mesh.normal_velocity.len()
     );
+    ensure!(
+        mesh.displacement.is_empty() || mesh.displacement.len() == n,
+        "{} displacements for {n} vertices",
+        mesh.displacement.len()
+    );
     if let Some(t) = mesh
         .triangles
         .iter()
@@ -168,6 +173,12 @@ fn in_space(mesh: &Mesh, space: Space) -> Result<Mesh> {
         triangles: mesh.triangles.clone(),
         normals: mesh.normals.iter().map(|&v| space.from_ras(v)).collect(),
         normal_velocity: mesh.normal_velocity.clone(),
+        // A displacement is a vector: the frame's rotation applies to it as to normals.
+        displacement: mesh
+            .displacement
+            .iter()
+            .map(|&v| space.from_ras(v))
+            .collect(),
     })
 }
 
@@ -212,6 +223,7 @@ mod tests {
                 [0.0, 0.0, 1.0],
             ],
             normal_velocity: vec![0.5, -1.0, 2.0, 0.25],
+            displacement: Vec::new(),
         }
     }
 

@@ -1,5 +1,6 @@
 //! Binary little-endian PLY through `ply-rs-bw`: `vertex` with `x y z nx ny nz normal_velocity`
-//! (float; the attributes only when the mesh has them) and `red green blue` (uchar, the class
+//! (float; the attributes only when the mesh has them), `dx dy dz` (float, the displacement of a
+//! motion model's carried series, where the mesh has one) and `red green blue` (uchar, the class
 //! colour, when known: the vertex colour properties MeshLab, trimesh, ParaView and 3D Slicer
 //! read), and `face` with `vertex_indices` (uchar count, uint indices). The header comments name the class and, on a line of its own
 //! as 3D Slicer writes it, the frame (`comment SPACE=LPS`).
@@ -20,6 +21,7 @@ enum Record {
         position: [f32; 3],
         normal: [f32; 3],
         normal_velocity: f32,
+        displacement: [f32; 3],
         color: [u8; 3],
     },
     Face([u32; 3]),
@@ -36,6 +38,7 @@ impl PropertyAccess for Record {
             position: p,
             normal: n,
             normal_velocity,
+            displacement: d,
             ..
         } = self
         else {
@@ -49,6 +52,9 @@ impl PropertyAccess for Record {
             "ny" => n[1],
             "nz" => n[2],
             "normal_velocity" => *normal_velocity,
+            "dx" => d[0],
+            "dy" => d[1],
+            "dz" => d[2],
             _ => return None,
         })
     }
@@ -93,6 +99,9 @@ pub(super) fn encode(mesh: &Mesh, info: &MeshInfo) -> Result<Vec<u8>> {
     if attributes {
         names.extend(["nx", "ny", "nz", "normal_velocity"]);
     }
+    if !mesh.displacement.is_empty() {
+        names.extend(["dx", "dy", "dz"]);
+    }
     names
         .into_iter()
         .for_each(|n| vertex.properties.add(float(n)));
@@ -116,6 +125,7 @@ pub(super) fn encode(mesh: &Mesh, info: &MeshInfo) -> Result<Vec<u8>> {
             position: mesh.positions[i],
             normal: mesh.normals.get(i).copied().unwrap_or_default(),
             normal_velocity: mesh.normal_velocity.get(i).copied().unwrap_or_default(),
+            displacement: mesh.displacement.get(i).copied().unwrap_or_default(),
             color: info.color.unwrap_or_default(),
         })
         .collect();
@@ -165,5 +175,20 @@ mod tests {
         assert!(!plain.contains("property uchar red"), "{plain}");
         let f = &ply.payload["face"];
         assert_eq!(f[3]["vertex_indices"], Property::ListUInt(vec![1, 2, 3]));
+        assert!(!plain.contains("property float dx"), "{plain}");
+    }
+
+    #[test]
+    fn a_displacement_is_three_float_properties() {
+        let mut mesh = tetrahedron();
+        mesh.displacement = (0..4).map(|i| [i as f32, -0.5, 2.0]).collect();
+        let bytes = encode(&mesh, &MeshInfo::new("lv", super::super::Space::Ras)).unwrap();
+        let ply = Parser::<DefaultElement>::new()
+            .read_ply(&mut bytes.as_slice())
+            .unwrap();
+        let v = &ply.payload["vertex"];
+        assert_eq!(v[3]["dx"], Property::Float(3.0));
+        assert_eq!(v[1]["dy"], Property::Float(-0.5));
+        assert_eq!(v[2]["dz"], Property::Float(2.0));
     }
 }

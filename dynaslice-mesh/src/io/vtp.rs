@@ -1,5 +1,7 @@
 //! VTK XML PolyData (.vtp), written directly: points, triangle `Polys`, point data `Normals`
-//! (3 components), `normal_velocity` (1 component) and, when the class colour is known,
+//! (3 components), `normal_velocity` (1 component), `displacement` (3 components, where the mesh
+//! has one: a motion model's carried series, the active vectors so that ParaView's Warp By
+//! Vector and `vtkWarpVector` take it by default) and, when the class colour is known,
 //! `Colors` (UInt8, 3 components: VTK's direct RGB colours; ParaView shows them with "Map
 //! Scalars" off, 3D Slicer with direct colour mapping) as raw little-endian arrays in the
 //! appended section (UInt64 byte-count headers), and field data that 3D Slicer and ParaView
@@ -101,6 +103,13 @@ pub(super) fn encode(mesh: &Mesh, info: &MeshInfo) -> Vec<u8> {
             mesh.normal_velocity.iter().copied(),
         ));
     }
+    if !mesh.displacement.is_empty() {
+        point_data.push(floats(
+            "displacement",
+            3,
+            mesh.displacement.iter().flatten().copied(),
+        ));
+    }
     if let Some(color) = info.color {
         let n = mesh.positions.len();
         point_data.push(bytes("Colors", 3, color.into_iter().cycle().take(3 * n)));
@@ -131,6 +140,9 @@ pub(super) fn encode(mesh: &Mesh, info: &MeshInfo) -> Vec<u8> {
     }
     if !mesh.normal_velocity.is_empty() {
         names.push_str(" Scalars=\"normal_velocity\"");
+    }
+    if !mesh.displacement.is_empty() {
+        names.push_str(" Vectors=\"displacement\"");
     }
     let _ = writeln!(xml, "      <PointData{names}>");
     for array in &point_data {
@@ -168,12 +180,29 @@ mod tests {
         let text = String::from_utf8_lossy(&bytes);
         assert!(text.contains("type=\"PolyData\""), "{text}");
         assert!(text.contains("Name=\"normal_velocity\"") && text.contains("Name=\"Normals\""));
+        assert!(
+            !text.contains("displacement"),
+            "a marched mesh has none: {text}"
+        );
         assert!(text.contains("Name=\"SPACE\" NumberOfTuples=\"1\" format=\"ascii\">82 65 83 0<"));
         assert!(
             text.contains("Name=\"ClassName\" NumberOfTuples=\"1\" format=\"ascii\">108 118 0<")
         );
         assert!(text.contains("Name=\"Label\" NumberOfTuples=\"1\" format=\"ascii\">7<"));
         assert!(text.contains("Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">0.25<"));
+    }
+
+    #[test]
+    fn a_displacement_is_the_active_vectors() {
+        let mut mesh = tetrahedron();
+        mesh.displacement = vec![[1.0, 2.0, 3.0]; 4];
+        let text =
+            String::from_utf8_lossy(&encode(&mesh, &MeshInfo::new("x", Space::Ras))).into_owned();
+        assert!(text.contains(" Vectors=\"displacement\">"), "{text}");
+        assert!(
+            text.contains("type=\"Float32\" Name=\"displacement\" NumberOfComponents=\"3\""),
+            "{text}"
+        );
     }
 
     #[test]
