@@ -16,7 +16,7 @@ use crate::spatial_bound::plane_band;
 use crate::spec::{SpecError, TrainSpec, MAX_STEPS};
 use crate::temporal_bound::temporal_bound;
 use crate::trainer::{self, Progress, TrainOptions};
-use crate::warp::motion_options;
+use crate::warp::{motion_options, SHAPE_TEMPORAL_FACTOR};
 use anyhow::{anyhow, bail, Context, Result};
 use dynaslice_core::ModelBytes;
 use dynaslice_model::RunRecord;
@@ -249,14 +249,16 @@ pub(crate) fn fit_checked(
     spec.check_classes(classes.len())?;
     let domain = domain_for(seq);
     check_model_limits(classes, &domain).map_err(|e| anyhow!("{}: {e}", input.description))?;
-    let omega_t_max = temporal_bound(
-        seq,
-        &domain,
-        spec.temporal_factor(),
-        !spec.no_temporal_control,
-    );
-    let plane_band = plane_band(seq, &domain, spec.temporal_factor(), !spec.no_plane_band);
     let motion = motion_options(seq, &domain, spec.motion, !spec.no_temporal_control);
+    // Carried by a motion network, the shape keeps a narrower band of its own (unless
+    // `--temporal-factor` says otherwise): its time input is the residual of shapes that
+    // really change, so the motion goes to u (`warp::SHAPE_TEMPORAL_FACTOR`).
+    let temporal_factor = match (&motion, spec.temporal_factor) {
+        (Some(_), None) => SHAPE_TEMPORAL_FACTOR,
+        _ => spec.temporal_factor(),
+    };
+    let omega_t_max = temporal_bound(seq, &domain, temporal_factor, !spec.no_temporal_control);
+    let plane_band = plane_band(seq, &domain, temporal_factor, !spec.no_plane_band);
     let options = TrainOptions {
         plane_band,
         motion,
@@ -381,7 +383,7 @@ pub(crate) fn fit_checked(
         classes,
         options: &options,
         counts,
-        temporal_factor: spec.temporal_factor(),
+        temporal_factor,
         class_weights: spec.class_weights.as_deref(),
         extent_margin,
         between_pairs: pairs
