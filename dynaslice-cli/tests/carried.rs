@@ -8,63 +8,11 @@
 mod common;
 
 use common::{succeeded, train_command};
-use dynaslice_test_support::fixtures::csl_file;
-use dynaslice_test_support::python::run_python;
+use dynaslice_test_support::fixtures::write_ball_sequence;
+use dynaslice_test_support::python::read_vtp_series;
 use dynaslice_test_support::spheres::{translated, translation_x, Sphere};
 use std::path::Path;
 use std::process::Command;
-
-/// For each VTP series in DIR (argv[1]), class by class and time by time: the class, the file,
-/// whether trimesh finds it watertight, whether its faces are the first time's, and where it
-/// has a `displacement` the largest |first + displacement − points| after `vtkWarpVector` and
-/// the mean displacement; else `none`.
-const READ_SERIES: &str = r#"
-import sys, glob, os
-import numpy as np
-import trimesh, vtk
-from vtk.util.numpy_support import vtk_to_numpy
-
-def read(path):
-    r = vtk.vtkXMLPolyDataReader()
-    r.SetFileName(path)
-    r.Update()
-    return r.GetOutput()
-
-def faces(poly):
-    return vtk_to_numpy(poly.GetPolys().GetConnectivityArray()).reshape(-1, 3)
-
-d = sys.argv[1]
-tags = sorted({os.path.basename(p).rsplit('_t', 1)[0] for p in glob.glob(os.path.join(d, '*.vtp'))})
-for tag in tags:
-    paths = sorted(glob.glob(os.path.join(d, tag + '_t*.vtp')))
-    first = read(paths[0])
-    for path in paths:
-        poly = read(path)
-        pts = vtk_to_numpy(poly.GetPoints().GetData()).astype(np.float64)
-        watertight = trimesh.Trimesh(pts, faces(poly)).is_watertight
-        same = len(pts) == first.GetNumberOfPoints() and np.array_equal(faces(poly), faces(first))
-        array = poly.GetPointData().GetArray('displacement')
-        if array is None:
-            print(tag, os.path.basename(path), watertight, same, 'none')
-            continue
-        first.GetPointData().SetVectors(array)
-        warp = vtk.vtkWarpVector()
-        warp.SetInputData(first)
-        warp.Update()
-        warped = vtk_to_numpy(warp.GetOutput().GetPoints().GetData()).astype(np.float64)
-        print(tag, os.path.basename(path), watertight, same,
-              float(np.abs(warped - pts).max()), *vtk_to_numpy(array).mean(0))
-"#;
-
-/// `READ_SERIES`'s rows, split; `None` where the Python libraries are missing.
-fn read_series(dir: &Path) -> Option<Vec<Vec<String>>> {
-    let out = run_python(&["trimesh", "vtk", "numpy"], READ_SERIES, &[dir])?;
-    Some(
-        out.lines()
-            .map(|l| l.split_whitespace().map(str::to_string).collect())
-            .collect(),
-    )
-}
 
 fn mesh_series(model: &Path, out: &Path, extra: &[&str]) -> String {
     let output = Command::new(env!("CARGO_BIN_EXE_dynaslice"))
@@ -98,7 +46,7 @@ fn a_known_translation_is_carried_through_the_series_in_lps() {
         "every later time carried: {log}"
     );
     assert!(!log.contains("not carried"), "{log}");
-    let Some(rows) = read_series(&series) else {
+    let Some(rows) = read_vtp_series(&series) else {
         return;
     };
     assert_eq!(rows.len(), 10, "{rows:?}");
@@ -117,44 +65,14 @@ fn a_known_translation_is_carried_through_the_series_in_lps() {
     }
 }
 
-/// A ball of radius 10 mm moving 6 mm along x per second, cut by 5 z-planes at times 0, 1, 2,
-/// as a .csl manifest.
-fn moving_ball(dir: &Path) -> std::path::PathBuf {
-    let mut manifest = String::new();
-    for (i, t) in [0.0f64, 1.0, 2.0].iter().enumerate() {
-        let (cx, r) = (6.0 * t, 10.0);
-        let planes: Vec<String> = [-6.0f64, -3.0, 0.0, 3.0, 6.0]
-            .iter()
-            .enumerate()
-            .map(|(p, z)| {
-                let rc = (r * r - z * z).sqrt();
-                let n = 48;
-                let mut plane = format!("{} {n} 1 0 0 1 {}\n\n", p + 1, -z);
-                for j in 0..n {
-                    let a = std::f64::consts::TAU * j as f64 / n as f64;
-                    plane += &format!("{} {} {z}\n", cx + rc * a.cos(), rc * a.sin());
-                }
-                let indices: Vec<String> = (0..n).map(|j| j.to_string()).collect();
-                plane += &format!("\n{n} 1 {}\n\n", indices.join(" "));
-                plane
-            })
-            .collect();
-        let name = format!("ball_{i}.csl");
-        std::fs::write(dir.join(&name), csl_file(1, &planes)).unwrap();
-        manifest += &format!("{t} {name}\n");
-    }
-    let path = dir.join("ball.cslseq");
-    std::fs::write(&path, manifest).unwrap();
-    path
-}
-
 /// A motion model trained for a few seconds: whatever its motion network learnt, every time's
 /// mesh is watertight, and a time is either carried (the first time's faces, a displacement
 /// that warps the first mesh onto it) or marched with a line saying so and no displacement.
 #[test]
 fn a_trained_motion_model_writes_carried_or_marched_meshes_never_broken_ones() {
     let dir = tempfile::tempdir().unwrap();
-    let input = moving_ball(dir.path());
+    // A ball of radius 10 mm moving 6 mm along x per second.
+    let input = write_ball_sequence(dir.path(), 0.0, 6.0);
     let model = dir.path().join("ball.dsm");
     succeeded(
         &train_command(&input, &model, &["--motion", "--steps", "150"])
@@ -172,7 +90,7 @@ fn a_trained_motion_model_writes_carried_or_marched_meshes_never_broken_ones() {
     let carried = log.matches("carried 1 of 1 classes").count();
     assert_eq!(carried + marched.len(), 4, "{log}");
     println!("{carried} of 4 later times carried; marched: {marched:?}\n{log}");
-    let Some(rows) = read_series(&series) else {
+    let Some(rows) = read_vtp_series(&series) else {
         return;
     };
     assert_eq!(rows.len(), 5, "{rows:?}");

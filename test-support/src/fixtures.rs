@@ -65,9 +65,16 @@ pub const TRIANGLE_PLANE: &str = "2 3 1 0 0 1 -1
 /// A sphere of radius r(t) = 10 + 2t mm cut by 5 z-planes, at times 0, 1, 2 (s), as a .csl
 /// manifest with one file per timestep (counter-clockwise circles, label 1).
 pub fn write_sequence(dir: &Path) -> PathBuf {
+    write_ball_sequence(dir, 2.0, 0.0)
+}
+
+/// [`write_sequence`]'s ball with its radius growing by `growth` mm and its centre moving by
+/// `shift` mm along x per second: r(t) = 10 + growth·t, centre (shift·t, 0, 0). Written as
+/// `dir/ball_{0,1,2}.csl` and the manifest `dir/ball.cslseq`, which it returns.
+pub fn write_ball_sequence(dir: &Path, growth: f64, shift: f64) -> PathBuf {
     let mut manifest = String::new();
     for (i, t) in [0.0f64, 1.0, 2.0].iter().enumerate() {
-        let r = 10.0 + 2.0 * t;
+        let (cx, r) = (shift * t, 10.0 + growth * t);
         let zs = [-6.0f64, -3.0, 0.0, 3.0, 6.0];
         let planes: Vec<String> = zs
             .iter()
@@ -78,7 +85,7 @@ pub fn write_sequence(dir: &Path) -> PathBuf {
                 let mut plane = format!("{} {n} 1 0 0 1 {}\n\n", p + 1, -z);
                 for j in 0..n {
                     let a = std::f64::consts::TAU * j as f64 / n as f64;
-                    plane += &format!("{} {} {z}\n", rc * a.cos(), rc * a.sin());
+                    plane += &format!("{} {} {z}\n", cx + rc * a.cos(), rc * a.sin());
                 }
                 plane += &format!(
                     "\n{n} 1 {}\n\n",
