@@ -307,10 +307,11 @@ pub const LR: Flag = flag(
 /// `warmup_steps`.
 pub const WARMUP_STEPS: Flag = Flag {
     more: Some(
-        "Worth it at `--omega0 30`, where the first full-size steps can turn large regions of \
-         a channel inside: with 100 steps and the default `--init-offset` every model measured \
-         there was stable (docs/training.md, \"When to change ω₀, and the learning-rate \
-         warm-up\"). At the default ω₀ it is not needed.",
+        "Worth it where the first full-size steps can turn large regions of a channel inside: \
+         at `--omega0 30` (with 100 steps every model measured there was stable), and at the \
+         default ω₀ on a resliced 4D label map whose planes leave the domain's corners empty, \
+         where 20 steps rescued every seed that collapsed (docs/training.md, \"When to change \
+         ω₀, and the learning-rate warm-up\").",
     ),
     ..flag(
         "warmup_steps",
