@@ -15,6 +15,38 @@ fn dynaslice(args: &[&str]) -> Command {
     c
 }
 
+/// Whether `line` is a progress line (`WHAT done/total, S s` or `WHAT done/total in S s`).
+fn is_progress_line(line: &str) -> bool {
+    let Some(rest) = line.strip_suffix(" s") else {
+        return false;
+    };
+    [", ", " in "].iter().any(|sep| {
+        rest.rsplit_once(sep).is_some_and(|(head, seconds)| {
+            let count = head.rsplit_once(' ').map_or(head, |(_, c)| c);
+            seconds.parse::<f64>().is_ok()
+                && count
+                    .split_once('/')
+                    .is_some_and(|(a, b)| a.parse::<u64>().is_ok() && b.parse::<u64>().is_ok())
+        })
+    })
+}
+
+#[test]
+fn progress_lines_are_told_from_other_lines() {
+    assert!(is_progress_line(
+        "extent check: meshing the classes, time 2/5, 4 s"
+    ));
+    assert!(is_progress_line(
+        "extent check: meshing the classes, time 5/5 in 7 s"
+    ));
+    assert!(!is_progress_line(
+        "error: cannot write to standard output: Broken pipe"
+    ));
+    assert!(!is_progress_line(
+        "warning: m.dsm: class 1 reaches 3.0 mm past, 4 s"
+    ));
+}
+
 /// Runs `c` with standard output a pipe whose reader is closed before the command writes.
 fn into_closed_pipe(mut c: Command) -> Output {
     let mut child = c
@@ -74,7 +106,10 @@ fn a_closed_standard_output_ends_quietly() {
     for args in lines {
         let out = into_closed_pipe(dynaslice(args));
         assert_eq!(out.status.code(), Some(0), "{args:?}: {}", stderr(&out));
-        assert!(stderr(&out).is_empty(), "{args:?}: {}", stderr(&out));
+        // Quietly: nothing on standard error but the progress lines a slow step prints every
+        // few seconds (a loaded machine makes even this small model's extent check slow).
+        let err = stderr(&out);
+        assert!(err.lines().all(is_progress_line), "{args:?}: {err}");
     }
     // The listing stopped; the data sets did not.
     let sets = std::fs::read_dir(&data).unwrap().count();
