@@ -26,6 +26,7 @@
 
 use crate::field::{LevelSets, Source};
 use crate::geometry::Mesh;
+use crate::vertices::normals_and_velocities;
 use dynaslice_core::{Model, Scratch};
 use rayon::prelude::*;
 use std::fmt;
@@ -393,19 +394,8 @@ fn project<S: Source>(
             }
         }
     };
-    let mut normals = Vec::with_capacity(positions.len());
-    let mut normal_velocity = Vec::with_capacity(positions.len());
-    // As `vertices::refine` gives a marched mesh's.
-    for (g, dt) in grad.iter().zip(&dfdt) {
-        let n = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-        if n > 1e-6 {
-            normals.push(g.map(|v| v / n));
-            normal_velocity.push(-dt / n);
-        } else {
-            normals.push([0.0; 3]);
-            normal_velocity.push(0.0);
-        }
-    }
+    // As a marched mesh's (`vertices::refine`).
+    let (normals, normal_velocity) = normals_and_velocities(&grad, &dfdt);
     Ok((positions, normals, normal_velocity))
 }
 

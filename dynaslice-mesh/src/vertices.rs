@@ -88,22 +88,27 @@ pub fn refine<S: Source>(
         }
     }
     let (_, grad, dfdt) = field.par_jacobians(positions, channel);
-    let mut normals = Vec::with_capacity(positions.len());
-    let mut normal_velocity = Vec::with_capacity(positions.len());
-    for (g, dt) in grad.iter().zip(&dfdt) {
-        let norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-        if norm > 1e-6 {
-            normals.push(g.map(|v| v / norm));
-            normal_velocity.push(-dt / norm);
-        } else {
-            normals.push([0.0; 3]);
-            normal_velocity.push(0.0);
-        }
-    }
+    let (normals, normal_velocity) = normals_and_velocities(&grad, &dfdt);
     Refined {
         normals,
         normal_velocity,
     }
+}
+
+/// Per vertex, from ∇ₓF and ∂F/∂t there: the unit normal ∇ₓF / ‖∇ₓF‖ and the normal velocity
+/// −(∂F/∂t) / ‖∇ₓF‖; both zero where the gradient vanishes (‖∇ₓF‖ ≤ 10⁻⁶).
+pub(crate) fn normals_and_velocities(grad: &[[f32; 3]], dfdt: &[f32]) -> (Vec<[f32; 3]>, Vec<f32>) {
+    grad.iter()
+        .zip(dfdt)
+        .map(|(g, dt)| {
+            let norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+            if norm > 1e-6 {
+                (g.map(|v| v / norm), -dt / norm)
+            } else {
+                ([0.0; 3], 0.0)
+            }
+        })
+        .unzip()
 }
 
 /// The fraction of its edge's length that a vertex keeps from either end: 10⁻³ of a cell, or
