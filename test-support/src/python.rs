@@ -88,8 +88,8 @@ for tag in tags:
               float(np.abs(warped - pts).max()), *vtk_to_numpy(array).mean(0))
 "#;
 
-/// [`READ_VTP_SERIES`]'s rows for the series in `dir`, split on whitespace; `None` where the
-/// Python libraries (trimesh, vtk, numpy) are missing.
+/// The rows of the script `READ_VTP_SERIES` (above) for the series in `dir`, split on
+/// whitespace; `None` where the Python libraries (trimesh, vtk, numpy) are missing.
 pub fn read_vtp_series(dir: &Path) -> Option<Vec<Vec<String>>> {
     let out = run_python(&["trimesh", "vtk", "numpy"], READ_VTP_SERIES, &[dir])?;
     Some(
